@@ -1,0 +1,54 @@
+#pragma once
+// Files: NumPy .npy arrays, CSV time series, and the kfx model file (JSON + .npy).
+// Formats are specified in docs/formats.md. Every reader throws kfx::Error naming the file and
+// what was expected (never a crash on a truncated or malformed file).
+#include <Eigen/Dense>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "kfx/model.hpp"
+
+namespace kfx {
+
+/// A dense array read from a .npy file, converted to double, stored in C (row-major) order.
+struct NpyArray {
+  std::vector<std::int64_t> shape;
+  std::vector<double> data;  ///< C order, size = product of shape
+};
+
+/// Reads a .npy file (format versions 1.0-3.0; dtypes <f8, <f4, <i8, <i4, <u1, |b1 read as double;
+/// fortran_order true or false). @throws kfx::Error for an unreadable/truncated/unsupported file.
+NpyArray ReadNpy(const std::string& path);
+/// Writes a C-order <f8 array. @throws kfx::Error if the file cannot be written or sizes disagree.
+void WriteNpy(const std::string& path, const std::vector<std::int64_t>& shape, const double* data);
+/// A 2-D array (a 1-D array of length n becomes n x 1). @throws kfx::Error for other ranks.
+Eigen::MatrixXd ReadNpyMatrix(const std::string& path);
+/// Writes an r x c matrix as shape (r, c).
+void WriteNpyMatrix(const std::string& path, const Eigen::Ref<const Eigen::MatrixXd>& m);
+/// Writes a vector as shape (n,).
+void WriteNpyVector(const std::string& path, const Eigen::Ref<const Eigen::VectorXd>& v);
+
+/// Reads a time series (T rows, one per time step) from .npy (shape (T, m) or (T,)) or .csv
+/// (chosen by extension). CSV: comma-separated numbers, optional header line (non-numeric first
+/// line), '#' comment lines, and "nan"/"NaN"/empty fields read as NaN (missing measurements).
+/// @throws kfx::Error for unreadable files, ragged rows, non-numeric fields.
+TimeSeries ReadTimeSeries(const std::string& path);
+/// Writes a time series as .npy or .csv (by extension); CSV gets a header line if names are given.
+void WriteTimeSeries(const std::string& path, const TimeSeries& data,
+                     const std::vector<std::string>& column_names = {});
+
+/// Loads a model file (JSON; matrices inline or as {"npy": "relative/path.npy"}; a leading time
+/// dimension makes the model time-varying). @throws kfx::Error naming the file and the field.
+Model LoadModel(const std::string& path);
+
+struct SaveModelOptions {
+  /// Matrices with more entries than this go to .npy files beside the JSON file.
+  std::int64_t inline_max_entries = 400;
+  /// For callback models (no stored sequence): number of steps to write out.
+  int steps = -1;
+};
+/// Writes a model file (JSON plus .npy files named <stem>.<field>.npy next to it).
+void SaveModel(const std::string& path, const Model& model, const SaveModelOptions& options = SaveModelOptions());
+
+}  // namespace kfx

@@ -1,0 +1,96 @@
+#pragma once
+// Discrete-time linear Gaussian state-space model (notation: docs/notation.md).
+//
+//   x_k = A_k x_{k-1} + w_k,   w_k ~ N(0, Q_k)   (or w_k = B_k u_k, u_k ~ N(0, U_k), Q_k = B_k U_k B_k^T)
+//   y_k = C_k x_k + v_k,       v_k ~ N(0, R_k)
+//   x_0 ~ N(m_0, P_0),          k = 1, 2, ...
+//
+// The first measurement is y_1 (of x_1); x_0 is only known through its prior. Steps are numbered
+// from 1; a time-varying sequence stores step k at index k - 1.
+#include <Eigen/Dense>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace kfx {
+
+/// A sequence in time-major layout: row k is the vector at time k (the (T, n) shape of numpy).
+using TimeSeries = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// The matrices of one step of the model.
+struct ModelStep {
+  Eigen::MatrixXd A;  ///< n x n state transition A_k.
+  Eigen::MatrixXd C;  ///< m x n measurement matrix C_k.
+  Eigen::MatrixXd Q;  ///< n x n process-noise covariance Q_k (symmetric PSD).
+  Eigen::MatrixXd R;  ///< m x m measurement-noise covariance R_k (symmetric PD).
+  /// Optional n x p noise input: when not empty, w_k = B_k u_k with u_k ~ N(0, U_k) and
+  /// Q = B U B^T (filled in by MakeStepWithNoiseInput). Simulation then draws u_k (p numbers).
+  Eigen::MatrixXd B;
+  Eigen::MatrixXd U;  ///< p x p covariance of u_k (symmetric PSD); empty when B is empty.
+
+  Eigen::Index state_dim() const { return A.rows(); }
+  Eigen::Index meas_dim() const { return C.rows(); }
+};
+
+/// A step with process noise covariance Q given directly.
+ModelStep MakeStep(Eigen::MatrixXd A, Eigen::MatrixXd C, Eigen::MatrixXd Q, Eigen::MatrixXd R);
+/// A step with process noise w = B u, u ~ N(0, U); sets Q = B U B^T.
+ModelStep MakeStepWithNoiseInput(Eigen::MatrixXd A, Eigen::MatrixXd B, Eigen::MatrixXd U, Eigen::MatrixXd C,
+                                 Eigen::MatrixXd R);
+
+/// Checks one step: dimensions (n x n, m x n, ...), finiteness, Q (and U) symmetric PSD, R symmetric
+/// PD, Q == B U B^T when B is given.
+/// @param label prefix for messages, e.g. "step 3: " (may be empty).
+/// @throws kfx::Error naming the offending matrix ("A", "Q", ...) and what was expected.
+void ValidateStep(const ModelStep& step, Eigen::Index n, Eigen::Index m, const std::string& label = "");
+
+using StepPtr = std::shared_ptr<const ModelStep>;
+
+/// A validated model: time-invariant (one step), time-varying (a sequence) or given by a
+/// callback k -> step. Copies are cheap (steps are shared, immutable).
+class Model {
+ public:
+  using StepFunction = std::function<ModelStep(int k)>;
+
+  /// Time-invariant model. @throws kfx::Error on invalid input.
+  Model(ModelStep step, Eigen::VectorXd m0, Eigen::MatrixXd P0);
+  /// Time-varying model over steps k = 1..steps.size() (steps[k-1] is step k).
+  /// @throws kfx::Error on invalid input, naming the step.
+  Model(std::vector<ModelStep> steps, Eigen::VectorXd m0, Eigen::MatrixXd P0);
+  /// Time-varying model given by a callback; each step is validated when it is first asked for.
+  /// @param horizon number of steps defined (-1: unbounded).
+  Model(Eigen::Index n, Eigen::Index m, StepFunction function, Eigen::VectorXd m0, Eigen::MatrixXd P0,
+        int horizon = -1);
+
+  Eigen::Index state_dim() const { return n_; }
+  Eigen::Index meas_dim() const { return m_; }
+  bool time_invariant() const { return kind_ == Kind::kInvariant; }
+  /// Number of steps for which the model is defined, or -1 when unbounded (time-invariant or
+  /// callback without horizon).
+  int horizon() const { return horizon_; }
+  /// The matrices of step k >= 1. @throws kfx::Error if k is out of range.
+  StepPtr step(int k) const;
+  const Eigen::VectorXd& m0() const { return m0_; }
+  const Eigen::MatrixXd& P0() const { return P0_; }
+
+  /// Number of steps to run when the caller asks for `steps` (negative: the model's horizon).
+  /// @throws kfx::Error if steps exceeds the horizon, or if both are unbounded.
+  int ResolveSteps(int steps, const std::string& what = "steps") const;
+
+  /// The same model with a different prior.
+  Model WithPrior(Eigen::VectorXd m0, Eigen::MatrixXd P0) const;
+
+ private:
+  enum class Kind { kInvariant, kSequence, kFunction };
+  void ValidatePrior();
+  Kind kind_;
+  Eigen::Index n_ = 0, m_ = 0;
+  int horizon_ = -1;
+  std::vector<StepPtr> steps_;
+  StepFunction function_;
+  Eigen::VectorXd m0_;
+  Eigen::MatrixXd P0_;
+};
+
+}  // namespace kfx

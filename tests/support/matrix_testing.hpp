@@ -1,0 +1,67 @@
+#pragma once
+// Test helpers: matrix comparison with an explicit tolerance, seeded random systems.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <random>
+#include <sstream>
+#include <string>
+
+namespace kfx::testing {
+
+/// Fails unless max |a - b| <= tol (absolute) and the shapes agree. No default tolerance on purpose.
+inline ::testing::AssertionResult MatricesNear(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, double tol) {
+  if (a.rows() != b.rows() || a.cols() != b.cols()) {
+    return ::testing::AssertionFailure() << "shape " << a.rows() << "x" << a.cols() << " vs " << b.rows() << "x"
+                                         << b.cols();
+  }
+  if (a.size() == 0) return ::testing::AssertionSuccess();
+  const double diff = (a - b).cwiseAbs().maxCoeff();
+  if (!(diff <= tol)) {
+    std::ostringstream os;
+    os << "max |a - b| = " << diff << " > tol " << tol;
+    if (a.size() <= 36) os << "\na =\n" << a << "\nb =\n" << b;
+    return ::testing::AssertionFailure() << os.str();
+  }
+  return ::testing::AssertionSuccess();
+}
+
+#define EXPECT_MATRICES_NEAR(a, b, tol) EXPECT_TRUE(::kfx::testing::MatricesNear((a), (b), (tol)))
+#define ASSERT_MATRICES_NEAR(a, b, tol) ASSERT_TRUE(::kfx::testing::MatricesNear((a), (b), (tol)))
+
+/// Relative Frobenius difference |a - b|_F / max(|b|_F, tiny).
+inline double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).norm() / std::max(b.norm(), 1e-300);
+}
+
+/// Deterministic Gaussian matrices for tests (std::normal_distribution is fine here: tests only).
+class TestRng {
+ public:
+  explicit TestRng(std::uint64_t seed) : gen_(seed) {}
+  Eigen::MatrixXd Gaussian(Eigen::Index r, Eigen::Index c) {
+    Eigen::MatrixXd m(r, c);
+    for (Eigen::Index j = 0; j < c; ++j)
+      for (Eigen::Index i = 0; i < r; ++i) m(i, j) = dist_(gen_);
+    return m;
+  }
+  /// Symmetric positive definite: G G^T / c + shift I.
+  Eigen::MatrixXd Spd(Eigen::Index n, double shift = 0.1) {
+    Eigen::MatrixXd g = Gaussian(n, n);
+    Eigen::MatrixXd s = g * g.transpose() / static_cast<double>(std::max<Eigen::Index>(n, 1));
+    s.diagonal().array() += shift;
+    return 0.5 * (s + s.transpose());
+  }
+  /// A random matrix scaled to spectral radius rho.
+  Eigen::MatrixXd WithSpectralRadius(Eigen::Index n, double rho) {
+    Eigen::MatrixXd a = Gaussian(n, n);
+    const double r = a.eigenvalues().cwiseAbs().maxCoeff();
+    return a * (rho / r);
+  }
+
+ private:
+  std::mt19937_64 gen_;
+  std::normal_distribution<double> dist_;
+};
+
+}  // namespace kfx::testing
