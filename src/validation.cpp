@@ -35,8 +35,15 @@ void RequireShape(const std::string& name, const Eigen::Ref<const Eigen::MatrixX
                   Eigen::Index cols) {
   if ((rows >= 0 && m.rows() != rows) || (cols >= 0 && m.cols() != cols)) {
     std::ostringstream os;
-    os << name << ": expected a " << (rows >= 0 ? std::to_string(rows) : std::string("any")) << "x"
-       << (cols >= 0 ? std::to_string(cols) : std::string("any")) << " matrix, got " << ShapeString(m);
+    os << name << ": expected ";
+    if (rows >= 0 && cols >= 0) {
+      os << "a " << rows << "x" << cols << " matrix";
+    } else if (rows >= 0) {
+      os << "a matrix with " << rows << (rows == 1 ? " row" : " rows");
+    } else {
+      os << "a matrix with " << cols << (cols == 1 ? " column" : " columns");
+    }
+    os << ", got " << ShapeString(m);
     throw Error(os.str());
   }
 }
@@ -109,7 +116,15 @@ void RequireVector(const std::string& name, const Eigen::Ref<const Eigen::Vector
 
 void Symmetrize(Eigen::MatrixXd& m) {
   KFX_ASSERT(m.rows() == m.cols());
-  m = 0.5 * (m + m.transpose()).eval();
+  // In place, no temporary: average each off-diagonal pair once.
+  const Eigen::Index n = m.rows();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      const double v = 0.5 * (m(i, j) + m(j, i));
+      m(i, j) = v;
+      m(j, i) = v;
+    }
+  }
 }
 
 }  // namespace kfx

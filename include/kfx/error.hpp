@@ -29,3 +29,12 @@ namespace detail {
 
 #define KFX_ASSERT(cond) \
   ((cond) ? static_cast<void>(0) : ::kfx::detail::AssertFail(#cond, __FILE__, __LINE__))
+
+namespace kfx {
+/// Raised when a computation breaks down numerically on valid input (e.g. an innovation
+/// covariance that lost definiteness). Solvers with a Summary report such outcomes there instead.
+class NumericalError : public std::runtime_error {
+ public:
+  explicit NumericalError(const std::string& what) : std::runtime_error(what) {}
+};
+}  // namespace kfx

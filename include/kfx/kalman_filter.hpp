@@ -1,0 +1,139 @@
+#pragma once
+// The Kalman filter and the Rauch-Tung-Striebel smoother (notation: docs/notation.md).
+//
+//   predict:  x_{k|k-1} = A_k x_{k-1|k-1},   P_{k|k-1} = A_k P_{k-1|k-1} A_k^T + Q_k
+//   update:   nu_k = y_k - C_k x_{k|k-1},  S_k = C_k P_{k|k-1} C_k^T + R_k,
+//             K_k = P_{k|k-1} C_k^T S_k^{-1}  (filter gain),   x_{k|k} = x_{k|k-1} + K_k nu_k,
+//             P_{k|k} = (I - K_k C_k) P_{k|k-1} (I - K_k C_k)^T + K_k R_k K_k^T  (Joseph form)
+//   log-likelihood term: -1/2 (m_obs log 2 pi + log det S_k + nu_k^T S_k^{-1} nu_k)
+//
+// Missing measurements: NaN entries of y_k are left out (the update uses the observed rows of
+// C_k, R_k only); a step with no observed entry is a pure prediction. S_k is factored (Cholesky),
+// never inverted. The offline part (gain and covariance schedule, ComputeKalmanSchedule) is
+// separate from the online part (the estimate update); KalmanAsLinearFilter expresses the
+// filter as the linear recursion that the exact-performance engine evaluates.
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+#include "kfx/linear_filter.hpp"
+#include "kfx/model.hpp"
+#include "kfx/progress.hpp"
+
+namespace kfx {
+
+/// A Gaussian estimate: mean and covariance.
+struct Estimate {
+  Eigen::VectorXd x;
+  Eigen::MatrixXd P;
+};
+
+enum class CovarianceUpdateForm {
+  kJoseph,    ///< (I - K C) P (I - K C)^T + K R K^T, evaluated in O(n^2 m); PSD-preserving. Default.
+  kStandard,  ///< P - K C P (cheaper in nothing here, kept for comparison studies).
+};
+
+struct KalmanFilterOptions {
+  CovarianceUpdateForm update_form = CovarianceUpdateForm::kJoseph;
+  /// Replace P by (P + P^T)/2 after every predict and update.
+  bool symmetrize = true;
+  bool IsValid(std::string* error) const;
+};
+
+/// The result of one measurement update.
+struct UpdateResult {
+  Estimate estimate;            ///< x_{k|k}, P_{k|k}
+  Eigen::VectorXd innovation;   ///< nu_k over the observed entries (length num_observed)
+  Eigen::MatrixXd innovation_cov;  ///< S_k over the observed entries
+  Eigen::MatrixXd gain;         ///< n x num_observed filter gain K_k
+  std::vector<Eigen::Index> observed;  ///< indices of the observed entries of y_k
+  double log_likelihood = 0.0;  ///< the step's log-likelihood term (0 when nothing is observed)
+};
+
+/// Time update with step matrices s. @throws kfx::Error on dimension mismatch.
+Estimate Predict(const Estimate& estimate, const ModelStep& s, const KalmanFilterOptions& options = {});
+/// Measurement update with y (length m; NaN entries are missing).
+/// @throws kfx::Error on dimension mismatch or infinite entries of y;
+///         kfx::NumericalError if S_k is not numerically positive definite.
+UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
+                    const KalmanFilterOptions& options = {});
+
+/// A convenience filter over a Model: holds the current estimate and step index.
+class KalmanFilter {
+ public:
+  explicit KalmanFilter(Model model, KalmanFilterOptions options = {});
+  /// Back to k = 0 with the prior (m0, P0).
+  void Reset();
+  /// Advances to k + 1: x_{k+1|k}, P_{k+1|k}.
+  void Predict();
+  /// Updates the current (predicted) estimate with y_k. Must follow Predict().
+  UpdateResult Update(const Eigen::Ref<const Eigen::VectorXd>& y);
+  /// Predict() then Update(y).
+  UpdateResult Step(const Eigen::Ref<const Eigen::VectorXd>& y);
+  int k() const { return k_; }
+  const Estimate& estimate() const { return estimate_; }
+  const Model& model() const { return model_; }
+
+ private:
+  Model model_;
+  KalmanFilterOptions options_;
+  Estimate estimate_;
+  int k_ = 0;
+  bool predicted_ = false;
+};
+
+struct FilterRunOptions {
+  KalmanFilterOptions filter;
+  /// Keep every P_{k|k-1}, P_{k|k} (needed by the smoother; n^2 (2T + 2) doubles).
+  bool store_covariances = true;
+  ProgressCallback progress;
+};
+
+/// A whole-sequence filter run on measurements y (T x m, row k-1 = y_k, NaN = missing).
+struct FilterRun {
+  TimeSeries x_filt;       ///< (T+1) x n, row k = x_{k|k}; row 0 = m0
+  TimeSeries x_pred;       ///< (T+1) x n, row k = x_{k|k-1}; row 0 = m0
+  TimeSeries P_filt_diag;  ///< (T+1) x n, diagonals of P_{k|k}; row 0 = diag P0
+  TimeSeries P_pred_diag;  ///< (T+1) x n
+  std::vector<Eigen::MatrixXd> P_filt;  ///< T+1 matrices if stored (index k), else empty
+  std::vector<Eigen::MatrixXd> P_pred;  ///< T+1 matrices if stored (index 0 = P0), else empty
+  TimeSeries innovations;  ///< T x m, NaN where the measurement was missing
+  Eigen::VectorXd log_likelihood_terms;  ///< length T
+  double log_likelihood = 0.0;           ///< sum of the terms
+  std::vector<int> num_observed;         ///< length T
+};
+
+/// Runs the filter over y. @throws kfx::Error on dimension mismatch / horizon exceeded.
+FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options = {});
+
+struct SmootherRun {
+  TimeSeries x;       ///< (T+1) x n, row k = x_{k|T}
+  TimeSeries P_diag;  ///< (T+1) x n
+  std::vector<Eigen::MatrixXd> P;  ///< T+1 matrices P_{k|T}
+};
+
+/// Rauch-Tung-Striebel smoother: G_k = P_{k|k} A_{k+1}^T P_{k+1|k}^{-1} (by a Cholesky solve; a
+/// complete orthogonal decomposition, i.e. the pseudo-inverse, when P_{k+1|k} is singular),
+/// x_{k|T} = x_{k|k} + G_k (x_{k+1|T} - x_{k+1|k}), P_{k|T} = P_{k|k} + G_k (P_{k+1|T} - P_{k+1|k}) G_k^T.
+/// @throws kfx::Error if the run did not store covariances or does not match the model.
+SmootherRun RtsSmooth(const Model& model, const FilterRun& run);
+
+/// The offline part of the Kalman filter: the gain and covariance schedule for k = 1..T (all
+/// measurements present). Riccati difference equation P_{k|k-1} = A_k P_{k-1|k-1} A_k^T + Q_k.
+struct KalmanSchedule {
+  std::vector<Eigen::MatrixXd> filter_gain;  ///< index k = 1..T (index 0 unused, empty)
+  std::vector<Eigen::MatrixXd> P_pred;       ///< index k = 0..T (P_pred[0] = P0)
+  std::vector<Eigen::MatrixXd> P_filt;       ///< index k = 0..T (P_filt[0] = P0)
+};
+KalmanSchedule ComputeKalmanSchedule(const Model& model, int steps, const KalmanFilterOptions& options = {});
+
+/// The Kalman filter as a linear recursion z_k = Phi_k z_{k-1} + K_k y_k with z = x_{k|k}:
+/// Phi_k = (I - K_k C_k) A_k, K_k the filter gain, O = I, z_0 = m0.
+LinearFilter KalmanAsLinearFilter(const Model& model, const KalmanSchedule& schedule);
+
+/// A time-invariant filter with a constant filter gain K_f (e.g. the steady-state gain from
+/// SolveFilterDare): Phi = (I - K_f C) A, K = K_f, O = I, z_0 = z0.
+LinearFilter ConstantGainFilter(const ModelStep& design, const Eigen::Ref<const Eigen::MatrixXd>& filter_gain,
+                                const Eigen::Ref<const Eigen::VectorXd>& z0);
+
+}  // namespace kfx

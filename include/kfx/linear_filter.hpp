@@ -1,0 +1,67 @@
+#pragma once
+// Every filter in kfx is a linear recursion (../shared/notes/exact-performance.md):
+//   z_k = Phi_k z_{k-1} + K_k y_k,   estimate of x_k = O_k z_k,   k = 1, 2, ...,  z_0 given,
+// where z_k (dimension n_z) is the filter's own state. The offline part of a method computes the
+// schedule (Phi_k, K_k, O_k); the online part is RunLinearFilter. The exact-performance engine
+// (performance.hpp) evaluates any LinearFilter against any true Model.
+#include <Eigen/Dense>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "kfx/model.hpp"
+
+namespace kfx {
+
+struct LinearFilterStep {
+  Eigen::MatrixXd Phi;  ///< n_z x n_z
+  Eigen::MatrixXd K;    ///< n_z x m
+  Eigen::MatrixXd O;    ///< n_out x n_z output map; empty means identity (n_out = n_z)
+};
+
+using LinearFilterStepPtr = std::shared_ptr<const LinearFilterStep>;
+
+class LinearFilter {
+ public:
+  using StepFunction = std::function<LinearFilterStep(int k)>;
+
+  /// Time-invariant filter with initial state z0 and output map O0 for k = 0 (empty: the step's O).
+  /// @throws kfx::Error on inconsistent dimensions or non-finite entries.
+  LinearFilter(LinearFilterStep step, Eigen::VectorXd z0, Eigen::MatrixXd O0 = Eigen::MatrixXd());
+  /// Time-varying filter over k = 1..steps.size() (steps[k-1] is step k).
+  LinearFilter(std::vector<LinearFilterStep> steps, Eigen::VectorXd z0, Eigen::MatrixXd O0 = Eigen::MatrixXd());
+  /// Filter given by a callback (validated as each step is asked for); horizon -1: unbounded.
+  LinearFilter(Eigen::Index n_z, Eigen::Index m, Eigen::Index n_out, StepFunction function, Eigen::VectorXd z0,
+               Eigen::MatrixXd O0, int horizon = -1);
+
+  Eigen::Index state_dim() const { return n_z_; }   ///< n_z
+  Eigen::Index meas_dim() const { return m_; }      ///< m
+  Eigen::Index output_dim() const { return n_out_; }  ///< n_out (the estimated state's dimension)
+  bool time_invariant() const { return kind_ == Kind::kInvariant; }
+  int horizon() const { return horizon_; }
+  LinearFilterStepPtr step(int k) const;
+  const Eigen::VectorXd& z0() const { return z0_; }
+  /// Output map at k = 0 (identity when empty and n_out == n_z).
+  const Eigen::MatrixXd& O0() const { return O0_; }
+
+ private:
+  enum class Kind { kInvariant, kSequence, kFunction };
+  void Validate(const LinearFilterStep& s, const std::string& label) const;
+  Kind kind_;
+  Eigen::Index n_z_ = 0, m_ = 0, n_out_ = 0;
+  int horizon_ = -1;
+  std::vector<LinearFilterStepPtr> steps_;
+  StepFunction function_;
+  Eigen::VectorXd z0_;
+  Eigen::MatrixXd O0_;
+};
+
+/// Applies O (empty = identity) to z.
+Eigen::VectorXd ApplyOutput(const Eigen::MatrixXd& O, const Eigen::VectorXd& z);
+
+/// The online part: runs the filter on measurements y (T x m, row k-1 = y_k; no NaN) and returns
+/// the estimates O_k z_k for k = 0..T as a (T+1) x n_out time series.
+/// @throws kfx::Error on dimension mismatch, non-finite y, or T beyond the filter's horizon.
+TimeSeries RunLinearFilter(const LinearFilter& filter, const TimeSeries& y);
+
+}  // namespace kfx

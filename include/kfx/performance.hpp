@@ -1,0 +1,99 @@
+#pragma once
+// The exact-performance engine (../shared/notes/exact-performance.md): the true mean-square error of
+// any linear filter z_k = Phi_k z_{k-1} + K_k y_k, estimate O_k z_k, run on any true model
+// x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k. The joint second moments of (x_k, z_k) obey
+//   [x_k]   [ A_k          0    ] [x_{k-1}]   [ I        0  ] [w_k]
+//   [z_k] = [ K_k C_k A_k  Phi_k] [z_{k-1}] + [ K_k C_k  K_k] [v_k]
+// propagated here block by block (Sxx, Sxz, Szz and the means), so the cost per step is that of a
+// few products of the block sizes. With e_k = x_k - O_k z_k:
+//   E[e_k e_k^T] = [I, -O_k] (Sigma_k + mu_k mu_k^T) [I, -O_k]^T,  MSE_k = tr E[e e^T],
+//   weighted MSE_k = tr(W E[e e^T]).
+// Every method of kfx reports its true error through this one engine.
+#include <Eigen/Dense>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "kfx/linear_filter.hpp"
+#include "kfx/model.hpp"
+#include "kfx/progress.hpp"
+
+namespace kfx {
+
+struct PerformanceOptions {
+  /// Number of steps T (negative: the shorter horizon of model and filter; error if both unbounded).
+  int steps = -1;
+  /// n x n symmetric PSD weight W of the weighted MSE (e.g. a Sobolev Gram matrix); empty = I.
+  Eigen::MatrixXd weight;
+  /// Keep E[e_k e_k^T] for every k (n^2 (T+1) doubles).
+  bool store_error_moments = true;
+  ProgressCallback progress;
+  bool IsValid(std::string* error) const;
+};
+
+struct PerformanceResult {
+  Eigen::VectorXd mse;           ///< length T+1: tr E[e_k e_k^T], k = 0..T
+  Eigen::VectorXd weighted_mse;  ///< length T+1: tr(W E[e_k e_k^T])
+  TimeSeries bias;               ///< (T+1) x n: E[e_k]
+  std::vector<Eigen::MatrixXd> error_moment;  ///< E[e_k e_k^T], k = 0..T (if stored)
+};
+
+/// Exact finite-horizon performance of `filter` on `truth` (z_0 deterministic, x_0 ~ N(m0, P0)).
+/// @throws kfx::Error if the filter's measurement dimension differs from the model's, its output
+///         dimension from the state dimension, or on an invalid weight/options.
+PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter,
+                                   const PerformanceOptions& options = PerformanceOptions());
+
+enum class StationaryMethod {
+  kJoint,             ///< Lyapunov equation of the joint (x, z) system: true system and filter stable.
+  kErrorCoordinates,  ///< consistent filter (Phi = (I - K C) A, O = I): Lyapunov equation of the error.
+  kNone,              ///< no stationary value: the error grows (see message).
+};
+const char* ToString(StationaryMethod method);
+
+struct StationaryPerformance {
+  StationaryMethod method = StationaryMethod::kNone;
+  std::string message;
+  Eigen::MatrixXd error_cov;  ///< stationary E[e e^T] (empty when method == kNone)
+  double mse = 0.0;           ///< tr error_cov (inf when kNone)
+  double weighted_mse = 0.0;  ///< tr(W error_cov)
+  double lyapunov_residual = 0.0;  ///< relative residual of the Lyapunov solve
+  bool exists() const { return method != StationaryMethod::kNone; }
+};
+
+/// Stationary error of a time-invariant filter on a time-invariant model.
+/// Uses the joint Lyapunov equation when both the true system (rho(A) < 1) and the filter
+/// (rho(Phi) < 1) are stable; otherwise, for a consistent filter (n_z = n, O = I,
+/// Phi = (I - K C) A) with rho((I - K C) A) < 1, the error-coordinates equation
+///   E = F E F^T + (I - K C) Q (I - K C)^T + K R K^T,  F = (I - K C) A;
+/// otherwise reports kNone (the error is not stationary; use ExactPerformance).
+/// @param weight n x n PSD (empty = I). @throws kfx::Error if either is time-varying or dims differ.
+StationaryPerformance ExactStationaryPerformance(const Model& truth, const LinearFilter& filter,
+                                                 const Eigen::MatrixXd& weight = Eigen::MatrixXd());
+
+struct MonteCarloOptions {
+  int runs = 1000;          ///< number of independent runs, >= 2
+  std::uint64_t seed = 1;   ///< run i uses Rng::StreamSeed(seed, i)
+  int steps = -1;           ///< as in PerformanceOptions
+  Eigen::MatrixXd weight;   ///< as in PerformanceOptions
+  bool store_error_moments = false;  ///< average e_k e_k^T over runs
+  ProgressCallback progress;
+  bool IsValid(std::string* error) const;
+};
+
+struct MonteCarloResult {
+  int runs = 0;
+  Eigen::VectorXd mse;                     ///< sample mean of |e_k|^2, k = 0..T
+  Eigen::VectorXd mse_std_error;           ///< its standard error (sample std / sqrt(runs))
+  Eigen::VectorXd weighted_mse;            ///< sample mean of e_k^T W e_k
+  Eigen::VectorXd weighted_mse_std_error;  ///< its standard error
+  TimeSeries bias;                         ///< sample mean of e_k
+  std::vector<Eigen::MatrixXd> error_moment;  ///< sample mean of e_k e_k^T (if stored)
+};
+
+/// Monte Carlo estimate of the same quantities: simulate the true model, run the filter online
+/// (RunLinearFilter), average the errors. Results do not depend on how runs are scheduled.
+MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
+                                       const MonteCarloOptions& options = MonteCarloOptions());
+
+}  // namespace kfx

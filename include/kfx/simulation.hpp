@@ -1,0 +1,53 @@
+#pragma once
+// Seeded, reproducible simulation of a Model. The generator is specified exactly (mt19937_64 with
+// a 53-bit uniform and Box-Muller normals, seeds split by SplitMix64), so a seed gives the same
+// trajectory on every platform and in every thread: run i of a batch uses StreamSeed(seed, i),
+// independent of how runs are spread over threads or processes.
+#include <Eigen/Dense>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "kfx/model.hpp"
+
+namespace kfx {
+
+class Rng {
+ public:
+  explicit Rng(std::uint64_t seed) : engine_(seed) {}
+  /// Uniform on (0, 1) with 53 random bits.
+  double Uniform();
+  /// Standard normal (Box-Muller, both values used).
+  double Normal();
+  /// A vector of n independent standard normals.
+  Eigen::VectorXd Normal(Eigen::Index n);
+  /// The seed of stream `stream` derived from `seed` (SplitMix64 mixing).
+  static std::uint64_t StreamSeed(std::uint64_t seed, std::uint64_t stream);
+
+ private:
+  std::mt19937_64 engine_;
+  bool has_spare_ = false;
+  double spare_ = 0.0;
+};
+
+/// A factor F with F F^T = M for a symmetric PSD matrix M (pivoted LDL^T; eigen-decomposition
+/// fallback when pivots are not clean). Used to draw N(0, M) samples as F * normal.
+Eigen::MatrixXd PsdFactor(const Eigen::Ref<const Eigen::MatrixXd>& M);
+
+struct Trajectory {
+  TimeSeries x;  ///< (T+1) x n: row k is x_k, row 0 the initial state.
+  TimeSeries y;  ///< T x m: row k-1 is y_k.
+};
+
+/// Draws x_0 ~ N(m0, P0) and then x_k, y_k for k = 1..steps.
+/// @param steps number of steps (negative: the model's horizon).
+/// @throws kfx::Error if steps exceeds the model's horizon.
+Trajectory Simulate(const Model& model, int steps, std::uint64_t seed);
+
+/// Draws the trajectory with an Rng the caller owns (used by batch and Monte Carlo runners).
+Trajectory Simulate(const Model& model, int steps, Rng& rng);
+
+/// `runs` independent trajectories; run i uses Rng(Rng::StreamSeed(seed, i)).
+std::vector<Trajectory> SimulateBatch(const Model& model, int steps, int runs, std::uint64_t seed);
+
+}  // namespace kfx

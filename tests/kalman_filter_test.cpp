@@ -1,0 +1,288 @@
+// Kalman filter and RTS smoother against independent truth: scalar closed forms, the alpha-beta
+// (Kalata) closed form of the double integrator, the DARE, a batch information-form solution, and
+// the exact Gaussian log-likelihood of the stacked measurements.
+#include "kfx/kalman_filter.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "kfx/error.hpp"
+#include "kfx/riccati.hpp"
+#include "kfx/simulation.hpp"
+#include "support/matrix_testing.hpp"
+
+namespace kfx {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+MatrixXd Scalar(double v) { return MatrixXd::Constant(1, 1, v); }
+
+// Discrete white-noise-acceleration model: A = [[1, T], [0, 1]], w = G a, G = [T^2/2, T]^T.
+ModelStep Dwna(double T, double sigma_w, double sigma_v) {
+  MatrixXd A(2, 2), G(2, 1), C(1, 2);
+  A << 1, T, 0, 1;
+  G << T * T / 2, T;
+  C << 1, 0;
+  return MakeStepWithNoiseInput(A, G, Scalar(sigma_w * sigma_w), C, Scalar(sigma_v * sigma_v));
+}
+
+TEST(KalmanFilter, ScalarRandomWalkMatchesClosedFormRecursion) {
+  const double q = 0.3, r = 2.0, p0 = 5.0, m0 = 1.0;
+  Model model(MakeStep(Scalar(1), Scalar(1), Scalar(q), Scalar(r)), VectorXd::Constant(1, m0), Scalar(p0));
+  TimeSeries y(6, 1);
+  y << 0.5, 1.7, -0.2, 2.5, 1.1, 0.9;
+  const FilterRun run = RunFilter(model, y);
+  double x = m0, p = p0, ll = 0.0;
+  for (int k = 1; k <= 6; ++k) {
+    const double pp = p + q, s = pp + r, kg = pp / s, nu = y(k - 1, 0) - x;
+    x += kg * nu;
+    p = pp * r / s;  // = (1 - K) P_pred
+    ll += -0.5 * (std::log(2 * M_PI) + std::log(s) + nu * nu / s);
+    EXPECT_NEAR(run.x_filt(k, 0), x, 1e-14);
+    EXPECT_NEAR(run.P_filt[static_cast<size_t>(k)](0, 0), p, 1e-14);
+    EXPECT_NEAR(run.P_pred_diag(k, 0), pp, 1e-14);
+    EXPECT_NEAR(run.innovations(k - 1, 0), nu, 1e-14);
+  }
+  EXPECT_NEAR(run.log_likelihood, ll, 1e-12);
+}
+
+TEST(KalmanFilter, ScalarRandomWalkConvergesToClosedFormSteadyState) {
+  const double q = 0.3, r = 2.0;
+  Model model(MakeStep(Scalar(1), Scalar(1), Scalar(q), Scalar(r)), VectorXd::Zero(1), Scalar(100.0));
+  const KalmanSchedule sch = ComputeKalmanSchedule(model, 200);
+  const double p_pred = (q + std::sqrt(q * q + 4 * q * r)) / 2;  // root of P^2 - q P - q r = 0
+  EXPECT_NEAR(sch.P_pred.back()(0, 0), p_pred, 1e-13);
+  EXPECT_NEAR(sch.filter_gain.back()(0, 0), p_pred / (p_pred + r), 1e-13);
+}
+
+// Kalata (1984): for the DWNA model the steady-state filter gain is [alpha, beta / T] with
+// tracking index lambda = sigma_w T^2 / sigma_v and
+//   alpha = -(l^2 + 8 l - (l + 4) sqrt(l^2 + 8 l)) / 8,   beta = (l^2 + 4 l - l sqrt(l^2 + 8 l)) / 4.
+TEST(KalmanFilter, DoubleIntegratorSteadyStateGainMatchesAlphaBetaClosedForm) {
+  for (const double T : {0.5, 1.0, 2.0}) {
+    for (const double lambda_target : {0.1, 1.0, 7.0}) {
+      const double sigma_v = 1.5, sigma_w = lambda_target * sigma_v / (T * T);
+      const double l = sigma_w * T * T / sigma_v;
+      const double root = std::sqrt(l * l + 8 * l);
+      const double alpha = -(l * l + 8 * l - (l + 4) * root) / 8;
+      const double beta = (l * l + 4 * l - l * root) / 4;
+      MatrixXd expected(2, 1);
+      expected << alpha, beta / T;
+      const ModelStep s = Dwna(T, sigma_w, sigma_v);
+      const DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
+      ASSERT_TRUE(dare.summary.ok()) << dare.summary.FullReport();
+      EXPECT_MATRICES_NEAR(dare.filter_gain, expected, 1e-10);
+      Model model(s, VectorXd::Zero(2), 10.0 * MatrixXd::Identity(2, 2));
+      const KalmanSchedule sch = ComputeKalmanSchedule(model, 3000);
+      EXPECT_MATRICES_NEAR(sch.filter_gain.back(), expected, 1e-9) << "T = " << T << ", lambda = " << l;
+    }
+  }
+}
+
+TEST(KalmanFilter, RiccatiRecursionConvergesToDare) {
+  kfx::testing::TestRng rng(7);
+  for (const Eigen::Index n : {2, 5, 20}) {
+    const Eigen::Index m = std::max<Eigen::Index>(1, n / 2);
+    const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.1), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+    Model model(s, VectorXd::Zero(n), MatrixXd::Identity(n, n));
+    const KalmanSchedule sch = ComputeKalmanSchedule(model, 400);
+    const DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
+    ASSERT_TRUE(dare.summary.ok()) << dare.summary.FullReport();
+    const double scale = dare.P_pred.norm();
+    EXPECT_LT((sch.P_pred.back() - dare.P_pred).norm() / scale, 1e-11) << "n = " << n;
+    EXPECT_LT((sch.P_filt.back() - dare.P_filt).norm() / scale, 1e-11) << "n = " << n;
+    EXPECT_MATRICES_NEAR(sch.filter_gain.back(), dare.filter_gain, 1e-9 * std::max(1.0, dare.filter_gain.norm()));
+  }
+}
+
+TEST(KalmanFilter, JosephAndStandardFormsAgreeOnWellConditionedProblem) {
+  kfx::testing::TestRng rng(3);
+  const Eigen::Index n = 6, m = 3;
+  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  Model model(s, VectorXd::Zero(n), MatrixXd::Identity(n, n));
+  KalmanFilterOptions standard;
+  standard.update_form = CovarianceUpdateForm::kStandard;
+  const KalmanSchedule a = ComputeKalmanSchedule(model, 50);
+  const KalmanSchedule b = ComputeKalmanSchedule(model, 50, standard);
+  for (int k = 0; k <= 50; ++k) EXPECT_MATRICES_NEAR(a.P_filt[static_cast<size_t>(k)], b.P_filt[static_cast<size_t>(k)], 1e-12);
+}
+
+TEST(KalmanFilter, ClassMatchesFunctionsAndRun) {
+  kfx::testing::TestRng rng(11);
+  const Eigen::Index n = 4, m = 2;
+  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  Model model(s, rng.Gaussian(n, 1), MatrixXd::Identity(n, n));
+  const Trajectory tr = Simulate(model, 20, 5);
+  const FilterRun run = RunFilter(model, tr.y);
+  KalmanFilter kf(model);
+  EXPECT_THROW(kf.Update(tr.y.row(0).transpose()), Error);  // Update before Predict
+  for (int k = 1; k <= 20; ++k) {
+    kf.Step(tr.y.row(k - 1).transpose());
+    EXPECT_MATRICES_NEAR(kf.estimate().x, run.x_filt.row(k).transpose(), 1e-13);
+    EXPECT_MATRICES_NEAR(kf.estimate().P, run.P_filt[static_cast<size_t>(k)], 1e-13);
+  }
+  EXPECT_EQ(kf.k(), 20);
+  kf.Reset();
+  EXPECT_EQ(kf.k(), 0);
+}
+
+// Stacked Gaussian: Y = G xi + v with xi = (x0, w_1..w_T); the log-density of the observed entries.
+double BatchLogLikelihood(const ModelStep& s, const VectorXd& m0, const MatrixXd& P0, const TimeSeries& y) {
+  const Eigen::Index n = s.A.rows(), m = s.C.rows();
+  const int T = static_cast<int>(y.rows());
+  const Eigen::Index nxi = n * (T + 1);
+  MatrixXd Sxi = MatrixXd::Zero(nxi, nxi);
+  Sxi.topLeftCorner(n, n) = P0;
+  for (int k = 1; k <= T; ++k) Sxi.block(n * k, n * k, n, n) = s.Q;
+  MatrixXd M = MatrixXd::Zero(n, nxi);  // x_k = M xi + mean_k
+  M.leftCols(n).setIdentity();
+  VectorXd mean_x = m0;
+  std::vector<Eigen::Index> rows;
+  MatrixXd G(m * T, nxi);
+  VectorXd mu(m * T), yv(m * T);
+  for (int k = 1; k <= T; ++k) {
+    M = (s.A * M).eval();
+    M.block(0, n * k, n, n) += MatrixXd::Identity(n, n);
+    mean_x = s.A * mean_x;
+    G.middleRows(m * (k - 1), m) = s.C * M;
+    mu.segment(m * (k - 1), m) = s.C * mean_x;
+    for (Eigen::Index i = 0; i < m; ++i) {
+      yv(m * (k - 1) + i) = y(k - 1, i);
+      if (!std::isnan(y(k - 1, i))) rows.push_back(m * (k - 1) + i);
+    }
+  }
+  MatrixXd Sy = G * Sxi * G.transpose();
+  for (int k = 0; k < T; ++k) Sy.block(m * k, m * k, m, m) += s.R;
+  const MatrixXd So = Sy(rows, rows);
+  const VectorXd d = yv(rows) - mu(rows);
+  Eigen::LLT<MatrixXd> llt(So);
+  const double logdet = 2 * llt.matrixLLT().diagonal().array().log().sum();
+  return -0.5 * (static_cast<double>(rows.size()) * std::log(2 * M_PI) + logdet + d.dot(llt.solve(d)));
+}
+
+TEST(KalmanFilter, LogLikelihoodEqualsStackedGaussianDensityWithMissingData) {
+  kfx::testing::TestRng rng(21);
+  const Eigen::Index n = 3, m = 2;
+  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.05), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const VectorXd m0 = rng.Gaussian(n, 1);
+  const MatrixXd P0 = rng.Spd(n);
+  Model model(s, m0, P0);
+  TimeSeries y = Simulate(model, 8, 99).y;
+  EXPECT_NEAR(RunFilter(model, y).log_likelihood, BatchLogLikelihood(s, m0, P0, y), 1e-10);
+  y(2, 0) = kNaN;           // one entry missing
+  y(4, 0) = y(4, 1) = kNaN;  // a whole step missing
+  const FilterRun run = RunFilter(model, y);
+  EXPECT_NEAR(run.log_likelihood, BatchLogLikelihood(s, m0, P0, y), 1e-10);
+  EXPECT_EQ(run.num_observed[2], 1);
+  EXPECT_EQ(run.num_observed[4], 0);
+  EXPECT_TRUE(std::isnan(run.innovations(4, 0)) && std::isnan(run.innovations(4, 1)));
+}
+
+TEST(KalmanFilter, MissingMeasurementsUseObservedRowsOnly) {
+  kfx::testing::TestRng rng(5);
+  const Eigen::Index n = 4, m = 3;
+  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const Estimate prior{rng.Gaussian(n, 1), rng.Spd(n)};
+  VectorXd y = rng.Gaussian(m, 1);
+  // All missing: the estimate is the prior.
+  const UpdateResult none = Update(prior, s, VectorXd::Constant(m, kNaN));
+  EXPECT_MATRICES_NEAR(none.estimate.x, prior.x, 0.0);
+  EXPECT_MATRICES_NEAR(none.estimate.P, prior.P, 0.0);
+  EXPECT_EQ(none.log_likelihood, 0.0);
+  // Entry 1 missing: same as the update with rows {0, 2} of C and R.
+  y(1) = kNaN;
+  const std::vector<Eigen::Index> keep{0, 2};
+  ModelStep reduced = MakeStep(s.A, s.C(keep, Eigen::all), s.Q, s.R(keep, keep));
+  const UpdateResult partial = Update(prior, s, y);
+  const UpdateResult direct = Update(prior, reduced, y(keep));
+  EXPECT_MATRICES_NEAR(partial.estimate.x, direct.estimate.x, 1e-14);
+  EXPECT_MATRICES_NEAR(partial.estimate.P, direct.estimate.P, 1e-14);
+  EXPECT_NEAR(partial.log_likelihood, direct.log_likelihood, 1e-14);
+  y(0) = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(Update(prior, s, y), Error);
+  EXPECT_THROW(Update(prior, s, VectorXd::Zero(m + 1)), Error);
+  EXPECT_THROW(Predict(Estimate{VectorXd::Zero(n + 1), MatrixXd::Identity(n, n)}, s), Error);
+}
+
+// The smoother against the batch (information-form) posterior of all states x_0..x_T.
+TEST(RtsSmoother, MatchesBatchInformationFormSolution) {
+  kfx::testing::TestRng rng(13);
+  const Eigen::Index n = 3, m = 1;
+  const int T = 7;
+  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.02), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const VectorXd m0 = rng.Gaussian(n, 1);
+  const MatrixXd P0 = rng.Spd(n);
+  Model model(s, m0, P0);
+  TimeSeries y = Simulate(model, T, 17).y;
+  y(3, 0) = kNaN;
+  const Eigen::Index N = n * (T + 1);
+  MatrixXd J = MatrixXd::Zero(N, N);
+  VectorXd h = VectorXd::Zero(N);
+  const MatrixXd P0i = P0.llt().solve(MatrixXd::Identity(n, n));
+  const MatrixXd Qi = s.Q.llt().solve(MatrixXd::Identity(n, n));
+  const MatrixXd Ri = s.R.llt().solve(MatrixXd::Identity(m, m));
+  J.topLeftCorner(n, n) += P0i;
+  h.head(n) += P0i * m0;
+  for (int k = 1; k <= T; ++k) {
+    // (x_k - A x_{k-1})^T Q^{-1} (x_k - A x_{k-1})
+    J.block(n * k, n * k, n, n) += Qi;
+    J.block(n * (k - 1), n * (k - 1), n, n) += s.A.transpose() * Qi * s.A;
+    J.block(n * k, n * (k - 1), n, n) -= Qi * s.A;
+    J.block(n * (k - 1), n * k, n, n) -= s.A.transpose() * Qi;
+    if (!std::isnan(y(k - 1, 0))) {
+      J.block(n * k, n * k, n, n) += s.C.transpose() * Ri * s.C;
+      h.segment(n * k, n) += s.C.transpose() * Ri * y.row(k - 1).transpose();
+    }
+  }
+  const MatrixXd cov = J.llt().solve(MatrixXd::Identity(N, N));
+  const VectorXd mean = cov * h;
+  const SmootherRun sm = RtsSmooth(model, RunFilter(model, y));
+  for (int k = 0; k <= T; ++k) {
+    EXPECT_MATRICES_NEAR(sm.x.row(k).transpose(), mean.segment(n * k, n), 1e-10) << "k = " << k;
+    EXPECT_MATRICES_NEAR(sm.P[static_cast<size_t>(k)], cov.block(n * k, n * k, n, n), 1e-10) << "k = " << k;
+  }
+  // The last smoothed estimate is the last filtered one.
+  const FilterRun run = RunFilter(model, y);
+  EXPECT_MATRICES_NEAR(sm.x.row(T), run.x_filt.row(T), 0.0);
+  FilterRunOptions no_cov;
+  no_cov.store_covariances = false;
+  EXPECT_THROW(RtsSmooth(model, RunFilter(model, y, no_cov)), Error);
+}
+
+TEST(RtsSmoother, SingularPredictedCovarianceUsesPseudoInverse) {
+  // Q = 0 and P0 singular: P_{k+1|k} is singular; the smoother must stay finite and agree with
+  // the filter where nothing is learned afterwards about the unexcited direction.
+  MatrixXd A = MatrixXd::Identity(2, 2), C(1, 2);
+  C << 1, 0;
+  MatrixXd P0 = MatrixXd::Zero(2, 2);
+  P0(0, 0) = 1.0;
+  Model model(MakeStep(A, C, MatrixXd::Zero(2, 2), Scalar(0.5)), VectorXd::Zero(2), P0);
+  TimeSeries y(3, 1);
+  y << 1.0, 1.2, 0.8;
+  const SmootherRun sm = RtsSmooth(model, RunFilter(model, y));
+  EXPECT_TRUE(sm.x.allFinite());
+  // Constant state seen through three measurements: every smoothed estimate is the posterior mean.
+  const double post = (1.0 + 1.2 + 0.8) / (0.5 + 3.0) ;  // prior var 1, noise var 0.5: mean = sum y / (0.5 + 3)
+  for (int k = 0; k <= 3; ++k) EXPECT_NEAR(sm.x(k, 0), post, 1e-12);
+}
+
+TEST(KalmanFilter, RunValidatesData) {
+  Model model(MakeStep(Scalar(1), Scalar(1), Scalar(1), Scalar(1)), VectorXd::Zero(1), Scalar(1));
+  EXPECT_THROW(RunFilter(model, TimeSeries::Zero(3, 2)), Error);
+  TimeSeries y = TimeSeries::Zero(3, 1);
+  y(1, 0) = std::numeric_limits<double>::infinity();
+  try {
+    RunFilter(model, y);
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("row 1"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace kfx

@@ -1,0 +1,115 @@
+// Model validation: every precondition throws kfx::Error naming the argument.
+#include "kfx/model.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "kfx/error.hpp"
+#include "support/matrix_testing.hpp"
+
+namespace kfx {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+ModelStep GoodStep() {
+  MatrixXd A(2, 2);
+  A << 1, 1, 0, 1;
+  MatrixXd C(1, 2);
+  C << 1, 0;
+  MatrixXd Q(2, 2);
+  Q << 1.0 / 3, 0.5, 0.5, 1;
+  return MakeStep(A, C, Q, MatrixXd::Identity(1, 1));
+}
+
+// Expects construction to throw kfx::Error whose message contains `name`.
+template <typename F>
+void ExpectErrorNaming(F f, const std::string& name) {
+  try {
+    f();
+    ADD_FAILURE() << "expected kfx::Error naming '" << name << "'";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << "message: " << e.what();
+  }
+}
+
+TEST(Model, TimeInvariantAccessors) {
+  Model m(GoodStep(), VectorXd::Zero(2), MatrixXd::Identity(2, 2));
+  EXPECT_EQ(m.state_dim(), 2);
+  EXPECT_EQ(m.meas_dim(), 1);
+  EXPECT_TRUE(m.time_invariant());
+  EXPECT_EQ(m.horizon(), -1);
+  EXPECT_EQ(m.step(1).get(), m.step(1000).get());  // shared, not copied
+  ExpectErrorNaming([&] { m.step(0); }, "k");
+  ExpectErrorNaming([&] { m.ResolveSteps(-1); }, "steps");
+}
+
+TEST(Model, SequenceAndCallbackAgree) {
+  std::vector<ModelStep> steps;
+  for (int k = 1; k <= 4; ++k) {
+    ModelStep s = GoodStep();
+    s.A(0, 1) = 0.1 * k;
+    steps.push_back(s);
+  }
+  Model seq(steps, VectorXd::Zero(2), MatrixXd::Identity(2, 2));
+  Model fun(
+      2, 1, [&](int k) { return steps[static_cast<size_t>(k - 1)]; }, VectorXd::Zero(2), MatrixXd::Identity(2, 2), 4);
+  EXPECT_EQ(seq.horizon(), 4);
+  for (int k = 1; k <= 4; ++k) EXPECT_MATRICES_NEAR(seq.step(k)->A, fun.step(k)->A, 0.0);
+  ExpectErrorNaming([&] { seq.step(5); }, "k");
+  ExpectErrorNaming([&] { seq.ResolveSteps(5); }, "steps");
+}
+
+TEST(Model, NoiseInputSetsQ) {
+  MatrixXd A = MatrixXd::Identity(3, 3), B(3, 1), C = MatrixXd::Ones(1, 3);
+  B << 1, 2, 3;
+  ModelStep s = MakeStepWithNoiseInput(A, B, MatrixXd::Constant(1, 1, 2.0), C, MatrixXd::Identity(1, 1));
+  EXPECT_MATRICES_NEAR(s.Q, 2.0 * B * B.transpose(), 1e-15);
+  Model m(s, VectorXd::Zero(3), MatrixXd::Zero(3, 3));  // P0 = 0 is allowed (PSD)
+  ModelStep bad = s;
+  bad.Q(0, 0) += 1.0;
+  ExpectErrorNaming([&] { Model(bad, VectorXd::Zero(3), MatrixXd::Zero(3, 3)); }, "Q");
+}
+
+TEST(Model, EveryValidationErrorNamesItsArgument) {
+  const VectorXd m0 = VectorXd::Zero(2);
+  const MatrixXd P0 = MatrixXd::Identity(2, 2);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  auto with = [&](auto mutate) {
+    ModelStep s = GoodStep();
+    mutate(s);
+    return s;
+  };
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.A = MatrixXd::Identity(2, 3); }), m0, P0); }, "A");
+  ExpectErrorNaming([&] { Model(with([&](ModelStep& s) { s.A(1, 0) = nan; }), m0, P0); }, "A");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.C = MatrixXd::Ones(1, 3); }), m0, P0); }, "C");
+  ExpectErrorNaming([&] { Model(with([&](ModelStep& s) { s.C(0, 1) = inf; }), m0, P0); }, "C");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q = MatrixXd::Identity(3, 3); }), m0, P0); }, "Q");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 1) = 0.9; }), m0, P0); }, "symmetric");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "Q");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "semidefinite");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); }, "R");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); }, "positive definite");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Identity(2, 2); }), m0, P0); }, "R");
+  ExpectErrorNaming([&] { Model(with([&](ModelStep& s) { s.R(0, 0) = nan; }), m0, P0); }, "R");
+  ExpectErrorNaming([&] { Model(GoodStep(), VectorXd::Zero(3), P0); }, "m0");
+  ExpectErrorNaming([&] { Model(GoodStep(), VectorXd::Constant(2, nan), P0); }, "m0");
+  ExpectErrorNaming([&] { Model(GoodStep(), m0, MatrixXd::Identity(3, 3)); }, "P0");
+  ExpectErrorNaming([&] { Model(GoodStep(), m0, -MatrixXd::Identity(2, 2)); }, "P0");
+  ExpectErrorNaming([&] { Model(std::vector<ModelStep>{}, m0, P0); }, "steps");
+  // A bad step in a sequence is named by its index.
+  std::vector<ModelStep> steps(3, GoodStep());
+  steps[2].R(0, 0) = -1;
+  ExpectErrorNaming([&] { Model(steps, m0, P0); }, "step 3: R");
+  // Callback steps are validated when asked for.
+  Model fun(2, 1, [&](int) { return steps[2]; }, m0, P0);
+  ExpectErrorNaming([&] { fun.step(1); }, "step 1: R");
+  ExpectErrorNaming([&] { Model(2, 1, Model::StepFunction(), m0, P0); }, "function");
+}
+
+}  // namespace
+}  // namespace kfx
