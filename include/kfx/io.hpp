@@ -34,6 +34,9 @@ void WriteNpyVector(const std::string& path, const Eigen::Ref<const Eigen::Vecto
 /// line), '#' comment lines, and "nan"/"NaN"/empty fields read as NaN (missing measurements).
 /// @throws kfx::Error for unreadable files, ragged rows, non-numeric fields.
 TimeSeries ReadTimeSeries(const std::string& path);
+/// As ReadTimeSeries(path), and sets *column_names (if not null) to the CSV header's names (empty
+/// when the file has no header line, and always for .npy).
+TimeSeries ReadTimeSeries(const std::string& path, std::vector<std::string>* column_names);
 /// Writes a time series as .npy or .csv (by extension); CSV gets a header line if names are given.
 void WriteTimeSeries(const std::string& path, const TimeSeries& data,
                      const std::vector<std::string>& column_names = {});

@@ -1,0 +1,585 @@
+// The kfx model file: JSON with matrices inline or in .npy files beside it.
+// Format: docs/formats.md, "Model files". Every error names the file and the field.
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <climits>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "kfx/error.hpp"
+#include "kfx/io.hpp"
+#include "kfx/validation.hpp"
+
+namespace kfx {
+
+namespace {
+
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+constexpr const char* kFormatName = "kfx-model";
+constexpr int kFormatVersion = 1;
+// Upper bound on the doubles a loaded time-varying model may hold (8 GiB): a horizon of 10^9 in a
+// ten-line file must give an error, not an out-of-memory kill. Each step also costs a fixed
+// overhead (shared pointer, six matrix headers), counted as kStepOverhead doubles.
+constexpr std::int64_t kMaxModelEntries = std::int64_t{1} << 30;
+constexpr std::int64_t kStepOverhead = 64;
+
+std::string ShapeOf(Eigen::Index rows, Eigen::Index cols) { return std::to_string(rows) + "x" + std::to_string(cols); }
+
+// A matrix-valued field: one matrix, or one per step (time-varying).
+struct MatrixField {
+  bool present = false;
+  bool time_varying = false;
+  std::vector<Eigen::MatrixXd> values;  // one (constant) or T (time-varying)
+
+  Eigen::Index rows() const { return values.front().rows(); }
+  Eigen::Index cols() const { return values.front().cols(); }
+  const Eigen::MatrixXd& at(std::size_t k) const { return values[time_varying ? k : 0]; }
+};
+
+class ModelFileReader {
+ public:
+  explicit ModelFileReader(const std::string& path) : path_(path), dir_(fs::path(path).parent_path()) {}
+
+  Model Load() {
+    const Json root = ParseFile();
+    CheckHeader(root);
+
+    MatrixField A = ReadMatrixField(root, "A", true, true);
+    const Eigen::Index n = A.rows();
+    for (std::size_t k = 0; k < A.values.size(); ++k) {
+      if (A.values[k].rows() != A.values[k].cols()) {
+        FailField("A", StepLabel(A, k) + "expected a square matrix, got " + ShapeString(A.values[k]));
+      }
+    }
+    MatrixField C = ReadMatrixField(root, "C", true, true);
+    if (C.cols() != n) {
+      FailField("C", "expected a matrix with " + std::to_string(n) + " columns (the state dimension, from 'A'), got " +
+                         ShapeString(C.values.front()));
+    }
+    const Eigen::Index m = C.rows();
+    MatrixField R = ReadMatrixField(root, "R", true, true);
+    RequireFieldShape("R", R, m, m);
+    MatrixField B = ReadMatrixField(root, "B", false, true);
+    MatrixField U = ReadMatrixField(root, "U", false, true);
+    if (B.present != U.present)
+      FailField(B.present ? "U" : "B", B.present ? "required with field 'B'" : "required with field 'U'");
+    if (B.present) {
+      if (B.rows() != n) {
+        FailField("B", "expected a matrix with " + std::to_string(n) + " rows (the state dimension, from 'A'), got " +
+                           ShapeString(B.values.front()));
+      }
+      RequireFieldShape("U", U, B.cols(), B.cols());
+    }
+    MatrixField Q = ReadMatrixField(root, "Q", false, true);
+    if (!Q.present && !B.present) Fail("missing field 'Q' (or the noise input 'B' with its covariance 'U')");
+    if (Q.present) RequireFieldShape("Q", Q, n, n);
+
+    const Eigen::VectorXd m0 = ReadVectorField(root, "m0");
+    if (m0.size() != n) {
+      FailField("m0", "expected a vector of length " + std::to_string(n) + " (the state dimension), got length " +
+                          std::to_string(m0.size()));
+    }
+    MatrixField P0 = ReadMatrixField(root, "P0", true, false);
+    RequireFieldShape("P0", P0, n, n);
+
+    // The horizon: agreed by every time-varying field and by "horizon".
+    long long steps = -1;
+    std::string steps_from;
+    for (const auto& f : {std::make_pair("A", &A), std::make_pair("C", &C), std::make_pair("Q", &Q),
+                          std::make_pair("R", &R), std::make_pair("B", &B), std::make_pair("U", &U)}) {
+      const MatrixField& field = *f.second;
+      if (!field.present || !field.time_varying) continue;
+      const auto t = static_cast<long long>(field.values.size());
+      if (steps < 0) {
+        steps = t;
+        steps_from = f.first;
+      } else if (t != steps) {
+        FailField(f.first, "expected " + std::to_string(steps) + " steps (as field '" + steps_from + "'), got " +
+                               std::to_string(t));
+      }
+    }
+    if (root.contains("horizon")) {
+      const Json& h = root["horizon"];
+      if (!h.is_number_integer() || h.get<long long>() < 1 || h.get<long long>() > INT_MAX) {
+        FailField("horizon", "expected a positive integer number of steps, got " + Brief(h));
+      }
+      const long long horizon = h.get<long long>();
+      if (steps >= 0 && horizon != steps) {
+        FailField("horizon", "expected " + std::to_string(steps) + " (the number of steps of the time-varying field '" +
+                                 steps_from + "'), got " + std::to_string(horizon));
+      }
+      steps = horizon;
+    }
+    if (steps > INT_MAX) Fail("a time-varying model of " + std::to_string(steps) + " steps is too long");
+
+    try {
+      if (steps < 0) return Model(MakeStepAt(A, C, Q, R, B, U, 0), m0, P0.values.front());
+      std::int64_t per_step = kStepOverhead;
+      for (const MatrixField* f : {&A, &C, &Q, &R, &B, &U}) {
+        if (f->present) per_step += static_cast<std::int64_t>(f->rows() * f->cols());
+      }
+      if (B.present && !Q.present) per_step += static_cast<std::int64_t>(n * n);
+      if (per_step > kMaxModelEntries / steps) {
+        Fail(std::string(root.contains("horizon") ? "field 'horizon': " : "") + "a time-varying model of " +
+             std::to_string(steps) + " steps with " + std::to_string(per_step) +
+             " numbers per step is too large to hold in memory (limit " + std::to_string(kMaxModelEntries) +
+             " numbers)");
+      }
+      std::vector<ModelStep> sequence;
+      sequence.reserve(static_cast<std::size_t>(steps));
+      for (long long k = 0; k < steps; ++k) {
+        try {
+          sequence.push_back(MakeStepAt(A, C, Q, R, B, U, static_cast<std::size_t>(k)));
+        } catch (const Error& e) {
+          throw Error("step " + std::to_string(k + 1) + ": " + e.what());
+        }
+      }
+      return Model(std::move(sequence), m0, P0.values.front());
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      if (what.compare(0, path_.size() + 2, path_ + ": ") == 0) throw;
+      Fail(NameField(what));
+    }
+  }
+
+ private:
+  [[noreturn]] void Fail(const std::string& what) const { throw Error(path_ + ": " + what); }
+  [[noreturn]] void FailField(const std::string& field, const std::string& what) const {
+    Fail("field '" + field + "': " + what);
+  }
+
+  // Rewrites a validation message "[step k: ]X: what" of the Model (X a field name) as
+  // "field 'X': [step k: ]what", the form of this reader's own messages.
+  static std::string NameField(const std::string& what) {
+    std::string step;
+    std::string rest = what;
+    if (rest.compare(0, 5, "step ") == 0) {
+      const std::size_t colon = rest.find(": ");
+      if (colon == std::string::npos) return what;
+      step = rest.substr(0, colon + 2);
+      rest = rest.substr(colon + 2);
+    }
+    for (const char* name : {"A", "C", "Q", "R", "B", "U", "m0", "P0"}) {
+      const std::string prefix = std::string(name) + ": ";
+      if (rest.compare(0, prefix.size(), prefix) == 0) {
+        return "field '" + std::string(name) + "': " + step + rest.substr(prefix.size());
+      }
+    }
+    return what;
+  }
+
+  static std::string Brief(const Json& v) {
+    std::string text = v.dump();
+    if (text.size() > 40) text = text.substr(0, 40) + "...";
+    return std::string(v.type_name()) + " " + text;
+  }
+  static std::string StepLabel(const MatrixField& f, std::size_t k) {
+    return f.time_varying ? "step " + std::to_string(k + 1) + ": " : std::string();
+  }
+
+  Json ParseFile() const {
+    errno = 0;
+    std::error_code ec;
+    if (fs::is_directory(path_, ec)) Fail("is a directory, expected a model file");
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) {
+      const int e = errno;
+      Fail(std::string("cannot open model file for reading") +
+           (e != 0 ? std::string(" (") + std::strerror(e) + ")" : ""));
+    }
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (in.bad()) Fail("cannot read model file");
+    if (text.str().find_first_not_of(" \t\r\n") == std::string::npos) Fail("empty file, expected a JSON model");
+    Json root;
+    try {
+      root = Json::parse(text.str());
+    } catch (const Json::exception& e) {
+      // "[json.exception.parse_error.101] parse error at line 3, column 7: ..." -> drop the tag.
+      std::string what = e.what();
+      const std::size_t tag_end = what.find("] ");
+      if (what.compare(0, 1, "[") == 0 && tag_end != std::string::npos) what = what.substr(tag_end + 2);
+      Fail("invalid JSON: " + what);
+    }
+    if (!root.is_object())
+      Fail("expected a JSON object {\"format\": \"kfx-model\", ...}, got a " + std::string(root.type_name()));
+    return root;
+  }
+
+  void CheckHeader(const Json& root) const {
+    if (root.contains("format")) {
+      const Json& f = root["format"];
+      if (!f.is_string() || f.get<std::string>() != kFormatName) {
+        FailField("format", std::string("expected \"") + kFormatName + "\", got " + Brief(f));
+      }
+    }
+    if (root.contains("version")) {
+      const Json& v = root["version"];
+      if (!v.is_number() || v.get<double>() != kFormatVersion) {
+        FailField("version", "unsupported version " + v.dump() + " (this kfx reads version " +
+                                 std::to_string(kFormatVersion) + ")");
+      }
+    }
+    for (const char* key : {"name", "description"}) {
+      if (root.contains(key) && !root[key].is_string()) FailField(key, "expected a string, got " + Brief(root[key]));
+    }
+  }
+
+  void RequireFieldShape(const char* name, const MatrixField& f, Eigen::Index rows, Eigen::Index cols) const {
+    for (std::size_t k = 0; k < f.values.size(); ++k) {
+      if (f.values[k].rows() != rows || f.values[k].cols() != cols) {
+        FailField(name,
+                  StepLabel(f, k) + "expected a " + ShapeOf(rows, cols) + " matrix, got " + ShapeString(f.values[k]));
+      }
+    }
+  }
+
+  // Nesting depth of a JSON value: 0 for a number, 1 + depth of the first element for a list.
+  static int Depth(const Json& v) {
+    int depth = 0;
+    const Json* p = &v;
+    while (p->is_array() && !p->empty() && depth < 8) {
+      ++depth;
+      p = &p->front();
+    }
+    return p->is_array() ? depth + 1 : depth;
+  }
+
+  static double Number(const Json& v, bool* ok) {
+    *ok = v.is_number();
+    return *ok ? v.get<double>() : 0.0;
+  }
+
+  // A matrix written as a number (1x1) or a list of rows.
+  Eigen::MatrixXd MatrixFromJson(const Json& v, const std::string& name, const std::string& where) const {
+    bool ok = false;
+    if (v.is_number()) return Eigen::MatrixXd::Constant(1, 1, Number(v, &ok));
+    if (!v.is_array() || v.empty()) FailField(name, where + "expected a matrix as a list of rows, got " + Brief(v));
+    const auto rows = static_cast<Eigen::Index>(v.size());
+    if (!v.front().is_array())
+      FailField(name, where + "expected a list of rows (e.g. [[1, 0]]), got a list of numbers");
+    const auto cols = static_cast<Eigen::Index>(v.front().size());
+    Eigen::MatrixXd m(rows, cols);
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const Json& row = v[static_cast<std::size_t>(i)];
+      const std::string row_label = "row " + std::to_string(i + 1);
+      if (!row.is_array())
+        FailField(name, where + "expected a list of numbers in " + row_label + ", got " + Brief(row));
+      if (static_cast<Eigen::Index>(row.size()) != cols) {
+        FailField(name, where + row_label + " has " + std::to_string(row.size()) + " entries, expected " +
+                            std::to_string(cols) + " (as row 1)");
+      }
+      for (Eigen::Index j = 0; j < cols; ++j) {
+        const Json& x = row[static_cast<std::size_t>(j)];
+        m(i, j) = Number(x, &ok);
+        if (!ok) {
+          FailField(name, where + "expected a number in " + row_label + ", column " + std::to_string(j + 1) + ", got " +
+                              Brief(x));
+        }
+      }
+    }
+    return m;
+  }
+
+  NpyArray ReadReference(const Json& v, const std::string& name) const {
+    if (v.size() != 1 || !v.contains("npy") || !v["npy"].is_string()) {
+      FailField(name, "expected {\"npy\": \"file.npy\"}, got " + Brief(v));
+    }
+    fs::path file = v["npy"].get<std::string>();
+    if (file.is_relative()) file = dir_ / file;
+    try {
+      return ReadNpy(file.string());
+    } catch (const Error& e) {
+      FailField(name, e.what());
+    }
+  }
+
+  static std::string ShapeText(const std::vector<std::int64_t>& shape) {
+    std::string s = "(";
+    for (std::size_t i = 0; i < shape.size(); ++i) s += (i > 0 ? ", " : "") + std::to_string(shape[i]);
+    return s + (shape.size() == 1 ? ",)" : ")");
+  }
+
+  MatrixField ReadMatrixField(const Json& root, const char* name, bool required, bool allow_time) const {
+    MatrixField f;
+    if (!root.contains(name)) {
+      if (required) Fail(std::string("missing field '") + name + "'");
+      return f;
+    }
+    f.present = true;
+    const Json& v = root[name];
+    if (v.is_object()) {
+      const NpyArray a = ReadReference(v, name);
+      const std::size_t rank = a.shape.size();
+      if (rank == 0) {
+        f.values.push_back(Eigen::MatrixXd::Constant(1, 1, a.data[0]));
+      } else if (rank == 2 || (rank == 3 && allow_time)) {
+        const std::int64_t steps = rank == 3 ? a.shape[0] : 1;
+        const auto rows = static_cast<Eigen::Index>(a.shape[rank - 2]);
+        const auto cols = static_cast<Eigen::Index>(a.shape[rank - 1]);
+        if (rank == 3 && (steps == 0 || steps > INT_MAX || rows == 0 || cols == 0)) {
+          FailField(name, "expected a time-varying field of shape (T, rows, cols) with 1 <= T <= " +
+                              std::to_string(INT_MAX) + " and non-empty matrices, got shape " + ShapeText(a.shape));
+        }
+        f.time_varying = rank == 3;
+        const double* p = a.data.data();
+        for (std::int64_t k = 0; k < steps; ++k) {
+          Eigen::MatrixXd m(rows, cols);
+          for (Eigen::Index i = 0; i < rows; ++i)
+            for (Eigen::Index j = 0; j < cols; ++j) m(i, j) = *p++;
+          f.values.push_back(std::move(m));
+        }
+      } else {
+        FailField(name, std::string("expected a 2-D array") +
+                            (allow_time ? " (or 3-D (T, rows, cols) for a time-varying field)" : "") + ", got shape " +
+                            ShapeText(a.shape) + " in " + v["npy"].get<std::string>());
+      }
+      return f;
+    }
+    const int depth = Depth(v);
+    if (depth == 3 && allow_time) {
+      f.time_varying = true;
+      for (std::size_t k = 0; k < v.size(); ++k) {
+        const std::string where = "step " + std::to_string(k + 1) + ": ";
+        f.values.push_back(MatrixFromJson(v[k], name, where));
+        if (k > 0 && (f.values[k].rows() != f.values[0].rows() || f.values[k].cols() != f.values[0].cols())) {
+          FailField(name, where + "expected a " + ShapeString(f.values[0]) + " matrix (as step 1), got " +
+                              ShapeString(f.values[k]));
+        }
+      }
+    } else if (depth == 0 || depth == 2) {
+      f.values.push_back(MatrixFromJson(v, name, ""));
+    } else if (depth == 1) {
+      FailField(name, "expected a matrix as a list of rows (e.g. [[1, 0]] for one row), got a flat list");
+    } else {
+      FailField(name,
+                std::string("expected a matrix (a list of rows)") +
+                    (allow_time ? " or a list of matrices (time-varying)" : " (this field cannot be time-varying)") +
+                    ", got lists nested " + std::to_string(depth) + " deep");
+    }
+    return f;
+  }
+
+  Eigen::VectorXd ReadVectorField(const Json& root, const char* name) const {
+    if (!root.contains(name)) Fail(std::string("missing field '") + name + "'");
+    const Json& v = root[name];
+    if (v.is_object()) {
+      const NpyArray a = ReadReference(v, name);
+      const bool column = a.shape.size() == 2 && a.shape[1] == 1;
+      if (a.shape.size() > 1 && !column) {
+        FailField(name, "expected a vector (a 1-D array), got shape " + ShapeText(a.shape));
+      }
+      return Eigen::Map<const Eigen::VectorXd>(a.data.data(), static_cast<Eigen::Index>(a.data.size()));
+    }
+    bool ok = false;
+    if (v.is_number()) return Eigen::VectorXd::Constant(1, Number(v, &ok));
+    if (!v.is_array()) FailField(name, "expected a list of numbers, got " + Brief(v));
+    Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      // Entries may be numbers, or one-element rows (a column written as [[1], [2]]).
+      const Json& e = v[i].is_array() && v[i].size() == 1 ? v[i].front() : v[i];
+      x(static_cast<Eigen::Index>(i)) = Number(e, &ok);
+      if (!ok) FailField(name, "expected a number in entry " + std::to_string(i + 1) + ", got " + Brief(v[i]));
+    }
+    return x;
+  }
+
+  static ModelStep MakeStepAt(const MatrixField& A, const MatrixField& C, const MatrixField& Q, const MatrixField& R,
+                              const MatrixField& B, const MatrixField& U, std::size_t k) {
+    if (!B.present) return MakeStep(A.at(k), C.at(k), Q.at(k), R.at(k));
+    if (!Q.present) return MakeStepWithNoiseInput(A.at(k), B.at(k), U.at(k), C.at(k), R.at(k));
+    // Q given with B and U: kept as written (the Model checks Q = B U B^T).
+    ModelStep s = MakeStep(A.at(k), C.at(k), Q.at(k), R.at(k));
+    s.B = B.at(k);
+    s.U = U.at(k);
+    return s;
+  }
+
+  std::string path_;
+  fs::path dir_;
+};
+
+// ----- Writing ----------------------------------------------------------------------------------
+
+bool BitwiseEqual(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0);
+}
+
+// Shortest text that reads back to the same double, always with a '.' or an exponent so that JSON
+// readers take it as a floating-point number (nlohmann reads "-0" as the integer 0, losing the sign).
+std::string NumberText(double x) {
+  char buf[64];
+  const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, x);
+  std::string s(buf, r.ptr);
+  if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string RowText(const Eigen::MatrixXd& m, Eigen::Index i) {
+  std::string s = "[";
+  for (Eigen::Index j = 0; j < m.cols(); ++j) s += (j > 0 ? ", " : "") + NumberText(m(i, j));
+  return s + "]";
+}
+
+// "[[1.0, 2.0],\n<indent> [3.0, 4.0]]", continuation rows aligned under the first.
+std::string MatrixText(const Eigen::MatrixXd& m, const std::string& indent) {
+  std::string s = "[";
+  for (Eigen::Index i = 0; i < m.rows(); ++i) s += (i > 0 ? ",\n" + indent + " " : "") + RowText(m, i);
+  return s + "]";
+}
+
+class ModelFileWriter {
+ public:
+  ModelFileWriter(const std::string& path, const SaveModelOptions& options) : path_(path), options_(options) {
+    const fs::path p(path);
+    dir_ = p.parent_path();
+    stem_ = p.extension() == ".json" ? p.stem().string() : p.filename().string();
+  }
+
+  void Save(const Model& model) {
+    std::vector<StepPtr> steps;
+    int horizon = -1;
+    try {
+      if (model.time_invariant()) {
+        steps.push_back(model.step(1));
+      } else {
+        horizon = model.ResolveSteps(options_.steps, "SaveModelOptions::steps");
+        if (horizon < 1)
+          throw Error("SaveModelOptions::steps: expected at least one step, got " + std::to_string(horizon));
+        steps.reserve(static_cast<std::size_t>(horizon));
+        for (int k = 1; k <= horizon; ++k) steps.push_back(model.step(k));
+      }
+    } catch (const Error& e) {
+      throw Error(path_ + ": " + e.what());
+    }
+
+    const auto has_input = [](const StepPtr& s) { return s->B.size() > 0 || s->U.size() > 0; };
+    const bool with_input = has_input(steps.front());
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      if (has_input(steps[k]) != with_input) {
+        throw Error(path_ + ": cannot save a model whose steps mix a noise input (B, U) with a plain Q (step " +
+                    std::to_string(k + 1) + ")");
+      }
+      if (with_input && steps[k]->B.cols() != steps.front()->B.cols()) {
+        throw Error(path_ + ": cannot save a model whose noise input B changes width (step " + std::to_string(k + 1) +
+                    ": " + ShapeString(steps[k]->B) + ", step 1: " + ShapeString(steps.front()->B) + ")");
+      }
+    }
+    // With a noise input, Q is written only when it is not exactly what loading recomputes.
+    bool write_q = !with_input;
+    for (std::size_t k = 0; k < steps.size() && !write_q; ++k) {
+      const ModelStep& s = *steps[k];
+      write_q = !BitwiseEqual(MakeStepWithNoiseInput(s.A, s.B, s.U, s.C, s.R).Q, s.Q);
+    }
+
+    std::string json = "{\n";
+    json += "  \"format\": \"" + std::string(kFormatName) + "\",\n";
+    json += "  \"version\": " + std::to_string(kFormatVersion) + ",\n";
+#ifdef KFX_VERSION
+    json += "  \"generator\": \"kfx " KFX_VERSION "\",\n";
+#endif
+    if (horizon >= 0) json += "  \"horizon\": " + std::to_string(horizon) + ",\n";
+    AddField(&json, "A", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.A; });
+    AddField(&json, "C", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.C; });
+    if (write_q) AddField(&json, "Q", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.Q; });
+    AddField(&json, "R", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.R; });
+    if (with_input) {
+      AddField(&json, "B", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.B; });
+      AddField(&json, "U", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.U; });
+    }
+    // m0 and P0.
+    const Eigen::VectorXd& m0 = model.m0();
+    if (Inline(m0.size())) {
+      json += "  \"m0\": " + RowText(m0.transpose(), 0) + ",\n";
+    } else {
+      WriteNpyVector(NpyPath("m0"), m0);
+      json += "  \"m0\": " + Reference("m0") + ",\n";
+    }
+    AddMatrix(&json, "P0", model.P0());
+    json.erase(json.size() - 2);  // the last ",\n"
+    json += "\n}\n";
+
+    errno = 0;
+    std::ofstream out(path_, std::ios::binary | std::ios::trunc);
+    if (!out) {
+      const int e = errno;
+      throw Error(path_ + ": cannot open file for writing" +
+                  (e != 0 ? std::string(" (") + std::strerror(e) + ")" : ""));
+    }
+    out << json;
+    out.close();
+    if (!out) throw Error(path_ + ": cannot write file");
+  }
+
+ private:
+  bool Inline(std::int64_t entries) const { return entries <= options_.inline_max_entries; }
+  std::string FileName(const std::string& field) const { return stem_ + "." + field + ".npy"; }
+  std::string NpyPath(const std::string& field) const { return (dir_ / FileName(field)).string(); }
+  std::string Reference(const std::string& field) const { return "{\"npy\": " + Json(FileName(field)).dump() + "}"; }
+
+  void AddMatrix(std::string* json, const std::string& name, const Eigen::MatrixXd& m) const {
+    const std::string prefix = "  \"" + name + "\": ";
+    if (Inline(static_cast<std::int64_t>(m.size())) && m.rows() > 0 && m.cols() > 0) {
+      *json += prefix + MatrixText(m, std::string(prefix.size(), ' ')) + ",\n";
+    } else {
+      WriteNpyMatrix(NpyPath(name), m);
+      *json += prefix + Reference(name) + ",\n";
+    }
+  }
+
+  template <typename Get>
+  void AddField(std::string* json, const std::string& name, const std::vector<StepPtr>& steps, Get get) const {
+    const Eigen::MatrixXd& first = get(*steps.front());
+    bool constant = true;
+    for (const StepPtr& s : steps) constant = constant && BitwiseEqual(get(*s), first);
+    if (constant) {
+      AddMatrix(json, name, first);
+      return;
+    }
+    const auto T = static_cast<std::int64_t>(steps.size());
+    const std::int64_t r = first.rows(), c = first.cols();
+    const std::string prefix = "  \"" + name + "\": ";
+    if (Inline(T * r * c) && r > 0 && c > 0) {
+      *json += prefix + "[\n";
+      for (std::size_t k = 0; k < steps.size(); ++k) {
+        *json += "    " + MatrixText(get(*steps[k]), "    ") + (k + 1 < steps.size() ? ",\n" : "\n");
+      }
+      *json += "  ],\n";
+      return;
+    }
+    std::vector<double> data;
+    data.reserve(static_cast<std::size_t>(T * r * c));
+    for (const StepPtr& s : steps) {
+      const Eigen::MatrixXd& m = get(*s);
+      for (Eigen::Index i = 0; i < m.rows(); ++i)
+        for (Eigen::Index j = 0; j < m.cols(); ++j) data.push_back(m(i, j));
+    }
+    WriteNpy(NpyPath(name), {T, r, c}, data.data());
+    *json += prefix + Reference(name) + ",\n";
+  }
+
+  std::string path_;
+  SaveModelOptions options_;
+  fs::path dir_;
+  std::string stem_;
+};
+
+}  // namespace
+
+Model LoadModel(const std::string& path) { return ModelFileReader(path).Load(); }
+
+void SaveModel(const std::string& path, const Model& model, const SaveModelOptions& options) {
+  ModelFileWriter(path, options).Save(model);
+}
+
+}  // namespace kfx
