@@ -37,8 +37,12 @@ struct DareOptions {
   int max_iterations = 60;
   /// Doubling stops when |H_{k+1} - H_k|_F <= tolerance * |H_{k+1}|_F; range (0, 1e-2].
   double tolerance = 1e-14;
-  /// The solution is accepted as stabilizing when rho(A - K_p C) < 1 - stability_margin.
+  /// The solution is accepted as stabilizing when rho(A - K_p C) < 1 - stability_margin; range [0, 1).
   double stability_margin = 0.0;
+  /// Refine a successful result (either method): up to 4 fixed-point steps P <- A P_filt A^T + Q
+  /// (each kept only if it at least halves the residual; error contracts like rho(A - K_p C)^2),
+  /// then one Newton (Hewer) step via a Stein equation if the residual is still > 1e-13.
+  bool refine = true;
   bool IsValid(std::string* error) const;
 };
 
@@ -48,6 +52,7 @@ struct DareSummary {
   DareMethod method_used = DareMethod::kAuto;  ///< kDoubling or kSchur: what produced the result.
   bool fell_back = false;                      ///< kAuto: doubling failed and Schur was used.
   int iterations = 0;                          ///< doubling steps (0 for Schur).
+  int refinement_steps = 0;                    ///< accepted refinement steps (DareOptions::refine).
   /// |P - A P A^T - Q + A P C^T S^{-1} C P A^T|_F / max(|P|_F, tiny), evaluated in double.
   double relative_residual = 0.0;
   double closed_loop_spectral_radius = 0.0;  ///< rho(A - K_p C)
@@ -72,6 +77,9 @@ struct DareSolution {
 /// @throws kfx::Error on invalid input (dimensions, symmetry, definiteness, NaN/Inf, options).
 /// Numerical failures (not detectable, not stabilizable, no convergence) are reported in
 /// summary.status, never thrown; the matrices are then those of the last iterate (may be empty).
+/// kConverged requires relative_residual <= 1e-8, rho(A - K_p C) < 1 - stability_margin and
+/// lambda_min(P) >= -1e-10 |P|_F. On failure, PBH rank tests on the eigenvalues of A refine the status
+/// to kNotDetectable / kNotStabilizable when they apply. n = 0 is allowed (empty results).
 DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eigen::Ref<const Eigen::MatrixXd>& C,
                              const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::Ref<const Eigen::MatrixXd>& R,
                              const DareOptions& options = DareOptions());

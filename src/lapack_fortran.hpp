@@ -1,0 +1,61 @@
+#pragma once
+// Private prototypes of the Fortran 77 routines kfx calls directly (not installed, not part of the
+// API). Conventions of gfortran, which built both Debian's OpenBLAS/LAPACK and SLICOT:
+//  - every argument is passed by reference; INTEGER is 32-bit int, LOGICAL is a 4-byte int;
+//  - arrays are column-major (Eigen's default MatrixXd layout);
+//  - each CHARACTER argument adds a hidden string length, passed by value after all the
+//    regular arguments, in the order of the CHARACTER arguments (type size_t for gfortran >= 8).
+// Only the routines below are used; the references are the routines' own documentation headers.
+#include <cstddef>
+
+extern "C" {
+
+using kfx_fortran_logical = int;
+
+/// LAPACK DGESV: solves A X = B for general A (n x n) by LU with partial pivoting; A is
+/// overwritten by its LU factors and B (n x nrhs) by X. info > 0: U(info, info) is exactly zero.
+void dgesv_(const int* n, const int* nrhs, double* a, const int* lda, int* ipiv, double* b, const int* ldb,
+            int* info);
+
+/// LAPACK DGEEV: eigenvalues (and optionally eigenvectors) of a general real matrix. Used with
+/// jobvl = jobvr = 'N' (eigenvalues only); lwork = -1 is a workspace query.
+void dgeev_(const char* jobvl, const char* jobvr, const int* n, double* a, const int* lda, double* wr, double* wi,
+            double* vl, const int* ldvl, double* vr, const int* ldvr, double* work, const int* lwork, int* info,
+            std::size_t jobvl_len, std::size_t jobvr_len);
+
+/// LAPACK DSYEVR: selected eigenvalues of a symmetric matrix (range 'I' with il = iu = 1 gives the
+/// smallest); lwork = liwork = -1 is a workspace query. The input triangle is destroyed.
+void dsyevr_(const char* jobz, const char* range, const char* uplo, const int* n, double* a, const int* lda,
+             const double* vl, const double* vu, const int* il, const int* iu, const double* abstol, int* m,
+             double* w, double* z, const int* ldz, int* isuppz, double* work, const int* lwork, int* iwork,
+             const int* liwork, int* info, std::size_t jobz_len, std::size_t range_len, std::size_t uplo_len);
+
+/// SLICOT SB02OD: continuous/discrete algebraic Riccati equation by the generalized Schur method
+/// (deflating subspaces of the extended symplectic pencil, Van Dooren 1981). For dico = 'D':
+///   X = A^T X A - (L + A^T X B) (R + B^T X B)^{-1} (L + A^T X B)^T + Q.
+/// Arrays: a (n x n), b (n x m), q (n x n), r (m x m), l (n x m), x (n x n), alfar/alfai/beta (2n),
+/// s (ldS >= 2n+m, 2n+m columns), t (ldT >= 2n+m, 2n columns), u (2n x 2n), iwork (max(1, m, 2n)),
+/// dwork (ldwork >= max(14n+23, 16n, 2n+m, 3m)), bwork (2n). info: 0 ok, 1 singular extended
+/// pencil, 2 QZ failed, 3 reordering failed, 4 eigenvalues moved across the circle after reordering,
+/// 5 stable subspace dimension != n (eigenvalues on the unit circle), 6 singular U11 (rcond < eps).
+void sb02od_(const char* dico, const char* jobb, const char* fact, const char* uplo, const char* jobl,
+             const char* sort, const int* n, const int* m, const int* p, const double* a, const int* lda,
+             const double* b, const int* ldb, double* q, const int* ldq, double* r, const int* ldr, double* l,
+             const int* ldl, double* rcond, double* x, const int* ldx, double* alfar, double* alfai, double* beta,
+             double* s, const int* lds, double* t, const int* ldt, double* u, const int* ldu, const double* tol,
+             int* iwork, double* dwork, const int* ldwork, kfx_fortran_logical* bwork, int* info,
+             std::size_t dico_len, std::size_t jobb_len, std::size_t fact_len, std::size_t uplo_len,
+             std::size_t jobl_len, std::size_t sort_len);
+
+/// SLICOT SB03MD: continuous or discrete Lyapunov equation by the Schur method (Bartels-Stewart,
+/// Barraud). For dico = 'D': op(A)^T X op(A) - X = scale * C, op(A) = A (trana = 'N') or A^T
+/// ('T'); C (n x n, symmetric) is overwritten by X; a is overwritten by its Schur form and u by the
+/// Schur vectors (fact = 'N'); wr/wi receive the eigenvalues of A. ldwork >= max(n*n, 3n) for
+/// job = 'X' (2n^2 + 2n to be safe across SLICOT releases). info: 0 ok, 1..n QR failed,
+/// n+1 A has (almost) reciprocal eigenvalues, perturbed values were used.
+void sb03md_(const char* dico, const char* job, const char* fact, const char* trana, const int* n, double* a,
+             const int* lda, double* u, const int* ldu, double* c, const int* ldc, double* scale, double* sep,
+             double* ferr, double* wr, double* wi, int* iwork, double* dwork, const int* ldwork, int* info,
+             std::size_t dico_len, std::size_t job_len, std::size_t fact_len, std::size_t trana_len);
+
+}  // extern "C"

@@ -1,0 +1,151 @@
+// Tests of SolveDiscreteLyapunov and SpectralRadius (src/riccati.cpp). Oracles: the scalar
+// closed form, the Kronecker-product linear system (I - A (x) A) vec X = vec Q for small n,
+// residuals and invariants for n up to 200, and every invalid / singular input.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "kfx/error.hpp"
+#include "kfx/riccati.hpp"
+#include "support/matrix_testing.hpp"
+
+namespace kfx {
+namespace {
+
+using Eigen::MatrixXd;
+using kfx::testing::RelativeDifference;
+using kfx::testing::TestRng;
+
+TEST(LyapunovScalar, MatchesClosedForm) {
+  // x = a^2 x + q  =>  x = q / (1 - a^2), also for |a| > 1 (then x < 0 for q > 0).
+  for (const auto& [a, q] : {std::pair{0.5, 1.0}, std::pair{-0.9, 2.0}, std::pair{0.0, 3.0}, std::pair{0.999, 1e-3},
+                             std::pair{2.0, 1.0}, std::pair{0.3, -1.0}}) {
+    LyapunovSummary summary;
+    const MatrixXd x = SolveDiscreteLyapunov(MatrixXd::Constant(1, 1, a), MatrixXd::Constant(1, 1, q), &summary);
+    const double expected = q / (1 - a * a);
+    ASSERT_EQ(x.rows(), 1);
+    EXPECT_NEAR(x(0, 0), expected, 1e-14 * std::abs(expected)) << "a = " << a;
+    EXPECT_TRUE(summary.ok);
+    EXPECT_NEAR(summary.spectral_radius, std::abs(a), 1e-15);
+    EXPECT_LE(summary.relative_residual, 1e-15);
+  }
+}
+
+/// (I - A (x) A) vec X = vec Q, since vec(A X A^T) = (A (x) A) vec X (column-major vec).
+MatrixXd KroneckerSolve(const MatrixXd& A, const MatrixXd& Q) {
+  const Eigen::Index n = A.rows();
+  MatrixXd K(n * n, n * n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j) K.block(i * n, j * n, n, n) = A(i, j) * A;
+  K = MatrixXd::Identity(n * n, n * n) - K;
+  const Eigen::VectorXd vec_q = Eigen::Map<const Eigen::VectorXd>(Q.data(), n * n);
+  const Eigen::VectorXd vec_x = K.fullPivLu().solve(vec_q);
+  return Eigen::Map<const MatrixXd>(vec_x.data(), n, n);
+}
+
+TEST(LyapunovKronecker, AgreesForSmallSystems) {
+  TestRng rng(21);
+  for (int n = 1; n <= 10; ++n) {
+    for (double rho : {0.5, 0.95, 1.5}) {  // 1.5: solvable (no reciprocal pair in general), X indefinite
+      const MatrixXd A = rng.WithSpectralRadius(n, rho);
+      const MatrixXd G = rng.Gaussian(n, n);
+      const MatrixXd Q = G + G.transpose();  // symmetric, indefinite
+      const MatrixXd X = SolveDiscreteLyapunov(A, Q);
+      EXPECT_LE(RelativeDifference(X, KroneckerSolve(A, Q)), 1e-11) << "n = " << n << ", rho = " << rho;
+      EXPECT_EQ(X, X.transpose());
+    }
+  }
+}
+
+TEST(LyapunovRandom, StableSystemsHaveSmallResidualAndPsdSolution) {
+  // Measured relative residuals: 1e-16 .. 3e-15 up to n = 200.
+  TestRng rng(22);
+  for (int n : {1, 2, 3, 5, 10, 20, 50, 100, 200}) {
+    const MatrixXd A = rng.WithSpectralRadius(n, 0.95);
+    const MatrixXd Q = rng.Spd(n);
+    LyapunovSummary summary;
+    const MatrixXd X = SolveDiscreteLyapunov(A, Q, &summary);
+    ASSERT_TRUE(summary.ok) << summary.message;
+    const MatrixXd res = X - A * X * A.transpose() - Q;
+    const double residual = res.norm() / X.norm();
+    EXPECT_LE(residual, 1e-13) << "n = " << n;
+    EXPECT_NEAR(summary.relative_residual, residual, 1e-14);
+    EXPECT_NEAR(summary.spectral_radius, 0.95, 1e-10);
+    EXPECT_NEAR(SpectralRadius(A), 0.95, 1e-10);
+    EXPECT_EQ(X, X.transpose());
+    const double min_eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(X, Eigen::EigenvaluesOnly).eigenvalues()(0);
+    EXPECT_GT(min_eig, 0.0) << "n = " << n;  // X >= Q > 0
+  }
+}
+
+TEST(LyapunovRandom, PsdRankDeficientNoiseGivesPsdSolution) {
+  TestRng rng(23);
+  const int n = 30;
+  const MatrixXd A = rng.WithSpectralRadius(n, 0.9);
+  const MatrixXd B = rng.Gaussian(n, 2);
+  const MatrixXd Q = B * B.transpose();
+  const MatrixXd X = SolveDiscreteLyapunov(A, Q);
+  const double min_eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(X, Eigen::EigenvaluesOnly).eigenvalues()(0);
+  EXPECT_GE(min_eig, -1e-12 * X.norm());
+}
+
+TEST(LyapunovShapes, EmptyMatrixGivesEmptySolution) {
+  LyapunovSummary summary;
+  const MatrixXd X = SolveDiscreteLyapunov(MatrixXd(0, 0), MatrixXd(0, 0), &summary);
+  EXPECT_EQ(X.rows(), 0);
+  EXPECT_EQ(X.cols(), 0);
+  EXPECT_TRUE(summary.ok);
+  EXPECT_EQ(summary.spectral_radius, 0.0);
+  EXPECT_EQ(SpectralRadius(MatrixXd(0, 0)), 0.0);
+}
+
+void ExpectErrorStartingWith(const std::string& prefix, const MatrixXd& A, const MatrixXd& Q,
+                             const std::string& also = "") {
+  try {
+    SolveDiscreteLyapunov(A, Q);
+    ADD_FAILURE() << "expected kfx::Error starting with " << prefix;
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(prefix, 0), 0u) << what;
+    if (!also.empty()) {
+      EXPECT_NE(what.find(also), std::string::npos) << what;
+    }
+  }
+}
+
+TEST(LyapunovSingular, ReciprocalEigenvaluesThrowWithTheSpectralRadius) {
+  const MatrixXd rot = Eigen::Rotation2Dd(0.4).toRotationMatrix();  // lambda lambda-bar = 1
+  ExpectErrorStartingWith("A:", MatrixXd::Identity(3, 3), MatrixXd::Identity(3, 3), "spectral radius 1");
+  ExpectErrorStartingWith("A:", (MatrixXd(2, 2) << 2, 1, 0, 0.5).finished(), MatrixXd::Identity(2, 2),
+                          "spectral radius 2");
+  ExpectErrorStartingWith("A:", rot, MatrixXd::Identity(2, 2), "spectral radius");
+  ExpectErrorStartingWith("A:", -MatrixXd::Identity(1, 1), MatrixXd::Identity(1, 1), "spectral radius 1");
+}
+
+TEST(LyapunovValidation, InvalidInputThrowsNamingTheArgument) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  MatrixXd A = 0.5 * MatrixXd::Identity(2, 2);
+  const MatrixXd Q = MatrixXd::Identity(2, 2);
+  ExpectErrorStartingWith("A:", MatrixXd::Ones(2, 3), Q);
+  MatrixXd bad = A;
+  bad(0, 1) = nan;
+  ExpectErrorStartingWith("A:", bad, Q);
+  ExpectErrorStartingWith("Q:", A, MatrixXd::Identity(3, 3));
+  ExpectErrorStartingWith("Q:", A, (MatrixXd(2, 2) << 1, 1, 0, 1).finished());
+  bad = Q;
+  bad(1, 1) = std::numeric_limits<double>::infinity();
+  ExpectErrorStartingWith("Q:", A, bad);
+  EXPECT_THROW(SpectralRadius(MatrixXd::Ones(2, 3)), Error);
+}
+
+TEST(SpectralRadius, MatchesKnownEigenvalues) {
+  EXPECT_NEAR(SpectralRadius(0.8 * Eigen::Rotation2Dd(1.0).toRotationMatrix()), 0.8, 1e-15);
+  EXPECT_NEAR(SpectralRadius((MatrixXd(3, 3) << -3, 1, 0, 0, 2, 1, 0, 0, 1).finished()), 3.0, 1e-15);
+  EXPECT_EQ(SpectralRadius(MatrixXd::Zero(4, 4)), 0.0);
+}
+
+}  // namespace
+}  // namespace kfx
