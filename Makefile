@@ -1,0 +1,55 @@
+# kfx — the two commands of a new machine:
+#   make demo   install missing Debian packages (as root), build Release, run the main job
+#   make test   same set-up, build, run every test through ctest
+# More: make test-asan (ASan + UBSan unit tests), make bench, make format-check, make install.
+SHELL := /bin/bash
+BUILD ?= build
+ASAN_BUILD ?= build-asan
+BENCH_BUILD ?= build-bench
+JOBS ?= 2
+PREFIX ?= /usr/local
+# One BLAS/OpenMP thread: on a shared 2-core machine more threads are erratic.
+export OPENBLAS_NUM_THREADS ?= 1
+export OMP_NUM_THREADS ?= 1
+
+DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapacke-dev libslicot-dev \
+                libcli11-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev
+KFX := $(BUILD)/bin/kfx
+
+.PHONY: demo test deps build test-asan bench format-check install clean
+
+deps:
+	@bash tools/install-deps.sh $(DEB_PACKAGES)
+
+build: deps
+	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) > $(BUILD).configure.log 2>&1 || (cat $(BUILD).configure.log; exit 1)
+	cmake --build $(BUILD) -j$(JOBS)
+
+demo: build
+	@bash examples/demo.sh $(KFX) $(if $(FULL),--full,)
+
+test: build
+	ctest --test-dir $(BUILD) --output-on-failure -j$(JOBS)
+
+# Unit tests under AddressSanitizer + UndefinedBehaviorSanitizer, with Eigen's assertions on
+# (-O1, no NDEBUG); the long reproductions are left out of this build.
+test-asan: deps
+	@cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+	  -DKFX_SANITIZE=ON -DKFX_LONG_TESTS=OFF > $(ASAN_BUILD).configure.log 2>&1 || (cat $(ASAN_BUILD).configure.log; exit 1)
+	cmake --build $(ASAN_BUILD) -j$(JOBS)
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --test-dir $(ASAN_BUILD) --output-on-failure -j$(JOBS)
+
+bench: deps
+	@cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DKFX_BUILD_BENCHMARKS=ON -DKFX_BUILD_TESTS=OFF > $(BENCH_BUILD).configure.log 2>&1 || (cat $(BENCH_BUILD).configure.log; exit 1)
+	cmake --build $(BENCH_BUILD) -j$(JOBS)
+	bash bench/run.sh $(BENCH_BUILD)
+
+format-check:
+	@clang-format --dry-run -Werror $$(git ls-files '*.cpp' '*.hpp')
+
+install: build
+	cmake --install $(BUILD)
+
+clean:
+	rm -rf $(BUILD) $(ASAN_BUILD) $(BENCH_BUILD) $(BUILD).configure.log $(ASAN_BUILD).configure.log demo-out

@@ -1,0 +1,381 @@
+// kfx — command-line front end. Thin: parse, call the library, print. Any error becomes one line on
+// stderr and exit code 2 (docs in README.md; file formats in docs/formats.md).
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "kfx/error.hpp"
+#include "kfx/io.hpp"
+#include "kfx/kalman_filter.hpp"
+#include "kfx/performance.hpp"
+#include "kfx/reproduce.hpp"
+#include "kfx/riccati.hpp"
+#include "kfx/simulation.hpp"
+#include "progress.hpp"
+
+namespace fs = std::filesystem;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace kfx::cli {
+namespace {
+
+void MakeDir(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir)) throw Error("-o/--out: cannot create directory '" + dir + "': " + ec.message());
+}
+
+std::string Join(const std::string& dir, const std::string& name) { return (fs::path(dir) / name).string(); }
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  if (!out || !(out << text << "\n")) throw Error(path + ": cannot write file");
+}
+
+std::string Fmt(const MatrixXd& m) {
+  static const Eigen::IOFormat f(6, 0, "  ", "\n", "    [", "]");
+  std::ostringstream os;
+  os << m.format(f);
+  return os.str();
+}
+
+void PrintMatrix(const std::string& name, const MatrixXd& m, Eigen::Index max_size = 4) {
+  if (m.rows() <= max_size && m.cols() <= max_size) {
+    std::cout << "  " << name << " (" << m.rows() << "x" << m.cols() << "):\n" << Fmt(m) << "\n";
+  } else {
+    std::cout << "  " << name << " (" << m.rows() << "x" << m.cols() << "), |.|_F = " << m.norm();
+    if (m.rows() == m.cols()) {
+      std::cout << ", trace " << m.trace() << ", diagonal:\n" << Fmt(m.diagonal().transpose()) << "\n";
+    } else {
+      std::cout << " (all entries with --json)\n";
+    }
+  }
+}
+
+nlohmann::ordered_json ToJson(const MatrixXd& m) {
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    nlohmann::ordered_json row = nlohmann::ordered_json::array();
+    for (Eigen::Index j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// ---- simulate ------------------------------------------------------------------------------
+struct SimulateArgs {
+  std::string model, out;
+  int steps = 100;
+  std::uint64_t seed = 1;
+  bool csv = false;
+};
+
+int RunSimulate(const SimulateArgs& a) {
+  const Model model = LoadModel(a.model);
+  const Trajectory tr = Simulate(model, a.steps, a.seed);
+  MakeDir(a.out);
+  const std::string ext = a.csv ? ".csv" : ".npy";
+  WriteTimeSeries(Join(a.out, "x" + ext), tr.x);
+  WriteTimeSeries(Join(a.out, "y" + ext), tr.y);
+  std::cout << "simulated " << a.steps << " steps (n = " << model.state_dim() << ", m = " << model.meas_dim()
+            << ", seed " << a.seed << ")\n  " << Join(a.out, "x" + ext) << "  states x_0..x_T, shape ("
+            << tr.x.rows() << ", " << tr.x.cols() << ")\n  " << Join(a.out, "y" + ext)
+            << "  measurements y_1..y_T, shape (" << tr.y.rows() << ", " << tr.y.cols() << ")\n";
+  return 0;
+}
+
+// ---- filter / smooth -----------------------------------------------------------------------
+struct FilterArgs {
+  std::string model, data, out;
+  bool csv = false;
+};
+
+int RunFilterCommand(const FilterArgs& a, bool smooth) {
+  const Model model = LoadModel(a.model);
+  const TimeSeries y = ReadTimeSeries(a.data);
+  ProgressLine progress(smooth ? "smooth" : "filter");
+  FilterRunOptions opt;
+  opt.store_covariances = smooth;
+  opt.progress = progress.callback();
+  const FilterRun run = RunFilter(model, y, opt);
+  progress.Finish();
+  MakeDir(a.out);
+  const std::string ext = a.csv ? ".csv" : ".npy";
+  std::vector<std::string> written;
+  auto write = [&](const std::string& name, const TimeSeries& ts) {
+    WriteTimeSeries(Join(a.out, name + ext), ts);
+    written.push_back(name + ext);
+  };
+  long missing = 0;
+  for (Eigen::Index i = 0; i < y.size(); ++i) missing += std::isnan(y.data()[i]) ? 1 : 0;
+  nlohmann::ordered_json summary;
+  summary["steps"] = y.rows();
+  summary["state_dim"] = model.state_dim();
+  summary["meas_dim"] = model.meas_dim();
+  summary["missing_entries"] = missing;
+  summary["log_likelihood"] = run.log_likelihood;
+  if (!smooth) {
+    write("x_filt", run.x_filt);
+    write("P_filt_diag", run.P_filt_diag);
+    write("x_pred", run.x_pred);
+    write("P_pred_diag", run.P_pred_diag);
+    write("innovations", run.innovations);
+  } else {
+    const SmootherRun sm = RtsSmooth(model, run);
+    write("x_smooth", sm.x);
+    write("P_smooth_diag", sm.P_diag);
+  }
+  summary["files"] = written;
+  WriteText(Join(a.out, "summary.json"), summary.dump(2));
+  std::cout << (smooth ? "smoothed " : "filtered ") << y.rows() << " steps (n = " << model.state_dim()
+            << ", m = " << model.meas_dim() << ", " << missing << " missing entries)\n"
+            << "  log-likelihood " << std::setprecision(10) << run.log_likelihood << "\n  wrote";
+  for (const auto& w : written) std::cout << " " << w;
+  std::cout << " summary.json to " << a.out << "\n";
+  return 0;
+}
+
+// ---- analyze -------------------------------------------------------------------------------
+struct AnalyzeArgs {
+  std::string model, design, json;
+  int monte_carlo = 0;
+  int steps = 50;
+  std::uint64_t seed = 1;
+};
+
+int RunAnalyze(const AnalyzeArgs& a) {
+  const Model truth = LoadModel(a.model);
+  const Model design = a.design.empty() ? truth : LoadModel(a.design);
+  if (design.state_dim() != truth.state_dim() || design.meas_dim() != truth.meas_dim()) {
+    throw Error("--design: expected a model with the same dimensions as MODEL (" + std::to_string(truth.state_dim()) +
+                " states, " + std::to_string(truth.meas_dim()) + " measurements)");
+  }
+  nlohmann::ordered_json j;
+  j["model"] = a.model;
+  std::cout << "model " << a.model << ": n = " << truth.state_dim() << ", m = " << truth.meas_dim()
+            << (truth.time_invariant() ? ", time-invariant" : ", time-varying") << "\n";
+  if (design.time_invariant()) {
+    const StepPtr s = design.step(1);
+    const DareSolution dare = SolveFilterDare(s->A, s->C, s->Q, s->R);
+    std::cout << "steady state (filter DARE" << (a.design.empty() ? "" : " of the design model") << "): "
+              << dare.summary.BriefReport() << "\n";
+    j["dare"] = {{"status", ToString(dare.summary.status)},
+                 {"method", ToString(dare.summary.method_used)},
+                 {"relative_residual", dare.summary.relative_residual},
+                 {"closed_loop_spectral_radius", dare.summary.closed_loop_spectral_radius},
+                 {"iterations", dare.summary.iterations}};
+    if (dare.summary.ok()) {
+      std::cout << std::setprecision(6);
+      PrintMatrix("P_pred  (a priori, P_{k|k-1})", dare.P_pred);
+      PrintMatrix("P_filt  (a posteriori, P_{k|k})", dare.P_filt);
+      PrintMatrix("filter gain K_f  (x_{k|k} = x_{k|k-1} + K_f nu_k)", dare.filter_gain);
+      PrintMatrix("predictor gain K_p = A K_f  (x_{k+1|k} = A x_{k|k-1} + K_p nu_k)", dare.predictor_gain);
+      std::cout << "  closed-loop spectral radius rho(A - K_p C) = " << dare.summary.closed_loop_spectral_radius
+                << "\n  DARE relative residual = " << dare.summary.relative_residual << "\n";
+      j["P_pred"] = ToJson(dare.P_pred);
+      j["P_filt"] = ToJson(dare.P_filt);
+      j["filter_gain"] = ToJson(dare.filter_gain);
+      j["predictor_gain"] = ToJson(dare.predictor_gain);
+      if (truth.time_invariant()) {
+        const LinearFilter f = ConstantGainFilter(*s, dare.filter_gain, truth.m0());
+        const StationaryPerformance st = ExactStationaryPerformance(truth, f);
+        if (st.exists()) {
+          std::cout << "  true stationary MSE of the steady-state filter on MODEL: " << st.mse << " ("
+                    << ToString(st.method) << ")\n";
+          j["stationary_mse"] = st.mse;
+        } else {
+          std::cout << "  true stationary MSE of the steady-state filter on MODEL: none (" << st.message << ")\n";
+        }
+      }
+    }
+  }
+  if (a.monte_carlo > 0) {
+    const int T = a.steps;
+    const KalmanSchedule design_schedule = ComputeKalmanSchedule(design, T);
+    const LinearFilter f = KalmanAsLinearFilter(design, design_schedule);
+    PerformanceOptions po;
+    po.steps = T;
+    po.store_error_moments = false;
+    const PerformanceResult exact = ExactPerformance(truth, f, po);
+    MonteCarloOptions mo;
+    mo.runs = a.monte_carlo;
+    mo.steps = T;
+    mo.seed = a.seed;
+    ProgressLine progress("monte carlo");
+    mo.progress = progress.callback();
+    const MonteCarloResult mc = MonteCarloPerformance(truth, f, mo);
+    progress.Finish();
+    const bool mismatch = !a.design.empty();
+    KalmanSchedule optimal;
+    if (mismatch) optimal = ComputeKalmanSchedule(truth, T);
+    std::cout << "time-varying Kalman filter" << (mismatch ? " designed on " + a.design : "")
+              << ", true MSE tr E[e_k e_k^T]: exact (engine) vs Monte Carlo (" << mc.runs << " runs, seed " << a.seed
+              << ")\n     k        exact  monte carlo      std.err       z";
+    if (mismatch) std::cout << "  filter claims  optimal (KF on MODEL)";
+    std::cout << "\n";
+    std::vector<int> ks;
+    for (int k : {0, 1, 2, 5, 10, 20, 50, 100, 200, 500, 1000})
+      if (k <= T) ks.push_back(k);
+    if (ks.back() != T) ks.push_back(T);
+    nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+    for (int k : ks) {
+      const double z = mc.mse_std_error(k) > 0 ? (mc.mse(k) - exact.mse(k)) / mc.mse_std_error(k) : 0.0;
+      std::cout << std::setprecision(6) << std::setw(6) << k << "  " << std::setw(11) << exact.mse(k) << "  "
+                << std::setw(11) << mc.mse(k) << "  " << std::setw(11) << mc.mse_std_error(k) << "  " << std::setw(6)
+                << std::setprecision(2) << z;
+      nlohmann::ordered_json row = {{"k", k}, {"exact", exact.mse(k)}, {"monte_carlo", mc.mse(k)}, {"std_error", mc.mse_std_error(k)}};
+      if (mismatch) {
+        const double claimed = design_schedule.P_filt[static_cast<size_t>(k)].trace();
+        const double best = optimal.P_filt[static_cast<size_t>(k)].trace();
+        std::cout << std::setprecision(6) << "  " << std::setw(13) << claimed << "  " << std::setw(13) << best;
+        row["filter_claims"] = claimed;
+        row["optimal"] = best;
+      }
+      std::cout << "\n";
+      rows.push_back(row);
+    }
+    if (mismatch) {
+      std::cout << "  (filter claims = trace of the mismatched filter's own P_{k|k}; the engine gives its true error)\n";
+    }
+    j["monte_carlo"] = {{"runs", mc.runs}, {"seed", a.seed}, {"rows", rows}};
+  }
+  if (!a.json.empty()) WriteText(a.json, j.dump(2));
+  return 0;
+}
+
+// ---- reproduce -----------------------------------------------------------------------------
+struct ReproduceArgs {
+  std::string paper, json, out;
+  bool quick = false;
+};
+
+int RunReproduce(const ReproduceArgs& a) {
+  std::vector<std::string> ids;
+  const bool all = a.paper == "all";
+  if (all) {
+    ids = PaperIds();
+  } else {
+    ids.push_back(a.paper);
+  }
+  std::vector<PaperReport> reports;
+  for (const auto& id : ids) {
+    ReproduceOptions opt;
+    opt.quick = a.quick;
+    if (!a.out.empty()) {
+      opt.out_dir = Join(a.out, id);
+      MakeDir(opt.out_dir);
+    }
+    ProgressLine progress("reproduce " + id);
+    opt.progress = progress.callback();
+    reports.push_back(Reproduce(id, opt));
+    progress.Finish();
+    std::cout << FormatReportTable(reports.back()) << std::flush;
+  }
+  if (!a.json.empty()) WriteText(a.json, ReportsToJson(reports, all));
+  return 0;
+}
+
+int Main(int argc, char** argv) {
+  CLI::App app{"kfx: Kalman filtering for large and infinite-dimensional linear systems"};
+  app.set_version_flag("--version", std::string("kfx ") + KFX_VERSION);
+  app.require_subcommand(1);
+
+  SimulateArgs sim;
+  auto* c_sim = app.add_subcommand("simulate", "Simulate states and measurements of a model");
+  c_sim->add_option("model", sim.model, "Model file (JSON, docs/formats.md)")->required();
+  c_sim->add_option("--steps", sim.steps, "Number of steps T")->check(CLI::Range(0, 2000000000));
+  c_sim->add_option("--seed", sim.seed, "Random seed");
+  c_sim->add_option("-o,--out", sim.out, "Output directory (x.npy: (T+1, n), y.npy: (T, m))")->required();
+  c_sim->add_flag("--csv", sim.csv, "Write CSV instead of .npy");
+
+  FilterArgs flt;
+  auto* c_flt = app.add_subcommand("filter", "Kalman filter: estimates, covariance diagonals, log-likelihood");
+  c_flt->add_option("model", flt.model, "Model file")->required();
+  c_flt->add_option("--data", flt.data, "Measurements (T, m) as .npy or .csv; NaN = missing")->required();
+  c_flt->add_option("-o,--out", flt.out, "Output directory")->required();
+  c_flt->add_flag("--csv", flt.csv, "Write CSV instead of .npy");
+
+  FilterArgs smo;
+  auto* c_smo = app.add_subcommand("smooth", "Rauch-Tung-Striebel smoother");
+  c_smo->add_option("model", smo.model, "Model file")->required();
+  c_smo->add_option("--data", smo.data, "Measurements (T, m) as .npy or .csv; NaN = missing")->required();
+  c_smo->add_option("-o,--out", smo.out, "Output directory")->required();
+  c_smo->add_flag("--csv", smo.csv, "Write CSV instead of .npy");
+
+  AnalyzeArgs ana;
+  auto* c_ana = app.add_subcommand("analyze",
+                                   "Steady state (DARE): covariances, both gains, closed-loop spectral radius, residual; "
+                                   "optionally exact vs Monte Carlo MSE");
+  c_ana->add_option("model", ana.model, "True model file")->required();
+  c_ana->add_option("--design", ana.design, "Design the filter on this model instead (mismatch study)");
+  c_ana->add_option("--monte-carlo", ana.monte_carlo, "Also compare exact and Monte Carlo MSE with this many runs")
+      ->check(CLI::Range(0, 2000000000));
+  c_ana->add_option("--steps", ana.steps, "Horizon of the exact/Monte Carlo comparison")->check(CLI::Range(1, 2000000000));
+  c_ana->add_option("--seed", ana.seed, "Monte Carlo seed");
+  c_ana->add_option("--json", ana.json, "Write the results as JSON");
+
+  ReproduceArgs rep;
+  auto* c_rep = app.add_subcommand("reproduce", "Put a paper's published numbers beside kfx's");
+  std::vector<std::string> choices = PaperIds();
+  choices.push_back("all");
+  c_rep->add_option("paper", rep.paper, "One of: aalto-spatial, bernstein, patel-toda, aalto-temporal, block-diagonal, all")
+      ->required()
+      ->check(CLI::IsMember(choices));
+  c_rep->add_option("--json", rep.json, "Write the items as JSON");
+  c_rep->add_option("--out", rep.out, "Directory for figures and data");
+  c_rep->add_flag("--quick", rep.quick, "Small, fast versions of the computations");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::string msg = e.what();
+    for (auto& ch : msg)
+      if (ch == '\n') ch = ' ';
+    std::fprintf(stderr, "kfx: error: %s (see kfx --help)\n", msg.c_str());
+    return 2;
+  }
+  if (c_sim->parsed()) return RunSimulate(sim);
+  if (c_flt->parsed()) return RunFilterCommand(flt, false);
+  if (c_smo->parsed()) return RunFilterCommand(smo, true);
+  if (c_ana->parsed()) return RunAnalyze(ana);
+  if (c_rep->parsed()) return RunReproduce(rep);
+  return 2;
+}
+
+}  // namespace
+}  // namespace kfx::cli
+
+int main(int argc, char** argv) {
+  auto one_line = [](std::string msg) {
+    for (auto& ch : msg)
+      if (ch == '\n' || ch == '\r') ch = ' ';
+    return msg;
+  };
+  try {
+    return kfx::cli::Main(argc, argv);
+  } catch (const kfx::Error& e) {
+    std::fprintf(stderr, "kfx: error: %s\n", one_line(e.what()).c_str());
+  } catch (const kfx::NumericalError& e) {
+    std::fprintf(stderr, "kfx: numerical error: %s\n", one_line(e.what()).c_str());
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "kfx: error: out of memory\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kfx: error: %s\n", one_line(e.what()).c_str());
+  } catch (...) {
+    std::fprintf(stderr, "kfx: error: unknown exception\n");
+  }
+  return 2;
+}

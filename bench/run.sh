@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Runs every benchmark once, single-threaded, and prints the docs/benchmarks.md table: achieved
+# GFLOP/s as a fraction of the DGEMM rate measured in the same run, and kfx's DARE time as a ratio
+# to SLICOT SB02OD (generalized Schur) measured in the same run. Usage: bench/run.sh BUILD_DIR
+set -euo pipefail
+build=${1:?usage: bench/run.sh BUILD_DIR}
+out="$build/bench-results"
+mkdir -p "$out"
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+for b in bench_dgemm bench_kalman bench_riccati; do
+  echo "running $b ..." >&2
+  "$build/bench/$b" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
+    --benchmark_out="$out/$b.json" --benchmark_out_format=json > /dev/null
+done
+/usr/bin/python3 - "$out" <<'PY'
+import json, sys, os, re
+out = sys.argv[1]
+def load(name):
+    with open(os.path.join(out, name + ".json")) as f:
+        return [b for b in json.load(f)["benchmarks"] if b.get("aggregate_name") == "median"]
+dg = load("bench_dgemm")[0]["GFLOP/s"]
+ctx = json.load(open(os.path.join(out, "bench_dgemm.json")))["context"]
+print(f"Machine: {ctx.get('num_cpus')} CPUs at {ctx.get('mhz_per_cpu')} MHz, one BLAS thread; "
+      f"measured DGEMM (n = 1000): **{dg:.1f} GFLOP/s**. Medians of 5 repetitions.\n")
+print("| Kalman filter step (predict + Joseph update) | n | m | time | GFLOP/s | fraction of DGEMM |")
+print("|---|---|---|---|---|---|")
+for b in load("bench_kalman"):
+    print(f"| {b['run_name']} | {int(b['n'])} | {int(b['m'])} | {b['real_time']:.3g} {b['time_unit']} | "
+          f"{b['GFLOP/s']:.2f} | {b['GFLOP/s']/dg:.0%} |")
+rows = {}
+for b in load("bench_riccati"):
+    kind, n = re.match(r"BM_(\w+)/(\d+)", b["run_name"]).groups()
+    rows.setdefault(int(n), {})[kind] = b
+print("\n| DARE, n (m = n/2) | kfx doubling | doubling steps | doubling residual | SLICOT SB02OD | SB02OD residual | speed-up vs SB02OD |")
+print("|---|---|---|---|---|---|---|")
+for n in sorted(rows):
+    d, s = rows[n].get("DareDoubling"), rows[n].get("DareSchurSb02od")
+    if not d or not s: continue
+    print(f"| {n} | {d['real_time']:.3g} {d['time_unit']} | {d.get('steps', float('nan')):.0f} | {d['residual']:.1e} | "
+          f"{s['real_time']:.3g} {s['time_unit']} | {s['residual']:.1e} | {s['real_time']/d['real_time']:.2f}x |")
+PY

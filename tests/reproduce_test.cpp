@@ -1,0 +1,57 @@
+// The reproduce registry and its JSON contract.
+#include "kfx/reproduce.hpp"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "kfx/error.hpp"
+
+namespace kfx {
+namespace {
+
+TEST(Reproduce, PaperIdsAreTheContract) {
+  EXPECT_EQ(PaperIds(), (std::vector<std::string>{"aalto-spatial", "bernstein", "patel-toda", "aalto-temporal",
+                                                   "block-diagonal"}));
+  for (const auto& id : PaperIds()) EXPECT_EQ(Reproduce(id, ReproduceOptions{true, "", {}}).paper, id);
+  try {
+    Reproduce("all");  // 'all' is the CLI's loop, not a paper
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("paper"), std::string::npos);
+  }
+}
+
+TEST(Reproduce, ItemStatusFromTolerance) {
+  ReproduceItem it{"k", "d", 2.0, 2.01, 1e-2, ""};
+  EXPECT_NEAR(*it.rel_diff(), 0.005, 1e-15);
+  EXPECT_EQ(it.status(), "reproduced");
+  it.tolerance = 1e-3;
+  EXPECT_EQ(it.status(), "differs");
+  it.published.reset();
+  EXPECT_FALSE(it.rel_diff().has_value());
+  EXPECT_EQ(it.status(), "new");
+}
+
+TEST(Reproduce, JsonLayout) {
+  PaperReport r;
+  r.paper = "patel-toda";
+  r.items.push_back(ReproduceItem{"pi1", "bound", 1.5, 1.5, 1e-3, ""});
+  r.items.push_back(ReproduceItem{"extra", "new number", std::nullopt, 3.0, 0.0, ""});
+  r.figures.push_back("fig.png");
+  const auto one = nlohmann::json::parse(ReportsToJson({r}, false));
+  EXPECT_EQ(one["paper"], "patel-toda");
+  EXPECT_EQ(one["items"][0]["status"], "reproduced");
+  EXPECT_EQ(one["items"][0]["rel_diff"], 0.0);
+  EXPECT_TRUE(one["items"][1]["published"].is_null());
+  EXPECT_TRUE(one["items"][1]["rel_diff"].is_null());
+  EXPECT_EQ(one["items"][1]["status"], "new");
+  EXPECT_EQ(one["figures"][0], "fig.png");
+  const auto all = nlohmann::json::parse(ReportsToJson({r, r}, true));
+  EXPECT_EQ(all["papers"].size(), 2u);
+  EXPECT_THROW(ReportsToJson({r, r}, false), Error);
+  EXPECT_NE(FormatReportTable(r).find("reproduced"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kfx
