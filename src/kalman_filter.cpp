@@ -113,8 +113,7 @@ UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<
   return r;
 }
 
-KalmanFilter::KalmanFilter(Model model, KalmanFilterOptions options)
-    : model_(std::move(model)), options_(options) {
+KalmanFilter::KalmanFilter(Model model, KalmanFilterOptions options) : model_(std::move(model)), options_(options) {
   std::string why;
   if (!options_.IsValid(&why)) throw Error("options: " + why);
   Reset();
@@ -151,7 +150,8 @@ FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOpti
   const Eigen::Index n = model.state_dim(), m = model.meas_dim();
   if (y.cols() != m) {
     throw Error("y: expected " + std::to_string(m) + (m == 1 ? " column" : " columns") +
-                " (the model's measurement dimension), got " + std::to_string(y.rows()) + "x" + std::to_string(y.cols()));
+                " (the model's measurement dimension), got " + std::to_string(y.rows()) + "x" +
+                std::to_string(y.cols()));
   }
   const int T = model.ResolveSteps(static_cast<int>(y.rows()), "y (rows)");
   FilterRun run;
@@ -205,7 +205,8 @@ FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOpti
 SmootherRun RtsSmooth(const Model& model, const FilterRun& run) {
   const Eigen::Index n = model.state_dim();
   const int T = static_cast<int>(run.x_filt.rows()) - 1;
-  if (T < 0 || run.x_filt.cols() != n) throw Error("run: expected a filter run of this model (n = " + std::to_string(n) + ")");
+  if (T < 0 || run.x_filt.cols() != n)
+    throw Error("run: expected a filter run of this model (n = " + std::to_string(n) + ")");
   if (static_cast<int>(run.P_filt.size()) != T + 1 || static_cast<int>(run.P_pred.size()) != T + 1) {
     throw Error("run: expected stored covariances (FilterRunOptions::store_covariances = true)");
   }
@@ -223,7 +224,7 @@ SmootherRun RtsSmooth(const Model& model, const FilterRun& run) {
     const StepPtr s = model.step(k + 1);
     const Eigen::MatrixXd& Pp = run.P_pred[kk + 1];
     const Eigen::MatrixXd APf = s->A * run.P_filt[kk];  // A_{k+1} P_{k|k}  (= (P_{k|k} A^T)^T)
-    Eigen::MatrixXd Gt;                                  // G_k^T = P_{k+1|k}^{-1} A_{k+1} P_{k|k}
+    Eigen::MatrixXd Gt;                                 // G_k^T = P_{k+1|k}^{-1} A_{k+1} P_{k|k}
     Eigen::LLT<Eigen::MatrixXd> llt(Pp);
     bool solved = false;
     if (llt.info() == Eigen::Success) {

@@ -14,8 +14,7 @@ using kfx_fortran_logical = int;
 
 /// LAPACK DGESV: solves A X = B for general A (n x n) by LU with partial pivoting; A is
 /// overwritten by its LU factors and B (n x nrhs) by X. info > 0: U(info, info) is exactly zero.
-void dgesv_(const int* n, const int* nrhs, double* a, const int* lda, int* ipiv, double* b, const int* ldb,
-            int* info);
+void dgesv_(const int* n, const int* nrhs, double* a, const int* lda, int* ipiv, double* b, const int* ldb, int* info);
 
 /// LAPACK DGEEV: eigenvalues (and optionally eigenvectors) of a general real matrix. Used with
 /// jobvl = jobvr = 'N' (eigenvalues only); lwork = -1 is a workspace query.
@@ -26,9 +25,9 @@ void dgeev_(const char* jobvl, const char* jobvr, const int* n, double* a, const
 /// LAPACK DSYEVR: selected eigenvalues of a symmetric matrix (range 'I' with il = iu = 1 gives the
 /// smallest); lwork = liwork = -1 is a workspace query. The input triangle is destroyed.
 void dsyevr_(const char* jobz, const char* range, const char* uplo, const int* n, double* a, const int* lda,
-             const double* vl, const double* vu, const int* il, const int* iu, const double* abstol, int* m,
-             double* w, double* z, const int* ldz, int* isuppz, double* work, const int* lwork, int* iwork,
-             const int* liwork, int* info, std::size_t jobz_len, std::size_t range_len, std::size_t uplo_len);
+             const double* vl, const double* vu, const int* il, const int* iu, const double* abstol, int* m, double* w,
+             double* z, const int* ldz, int* isuppz, double* work, const int* lwork, int* iwork, const int* liwork,
+             int* info, std::size_t jobz_len, std::size_t range_len, std::size_t uplo_len);
 
 /// SLICOT SB02OD: continuous/discrete algebraic Riccati equation by the generalized Schur method
 /// (deflating subspaces of the extended symplectic pencil, Van Dooren 1981). For dico = 'D':
@@ -38,14 +37,13 @@ void dsyevr_(const char* jobz, const char* range, const char* uplo, const int* n
 /// dwork (ldwork >= max(14n+23, 16n, 2n+m, 3m)), bwork (2n). info: 0 ok, 1 singular extended
 /// pencil, 2 QZ failed, 3 reordering failed, 4 eigenvalues moved across the circle after reordering,
 /// 5 stable subspace dimension != n (eigenvalues on the unit circle), 6 singular U11 (rcond < eps).
-void sb02od_(const char* dico, const char* jobb, const char* fact, const char* uplo, const char* jobl,
-             const char* sort, const int* n, const int* m, const int* p, const double* a, const int* lda,
-             const double* b, const int* ldb, double* q, const int* ldq, double* r, const int* ldr, double* l,
-             const int* ldl, double* rcond, double* x, const int* ldx, double* alfar, double* alfai, double* beta,
-             double* s, const int* lds, double* t, const int* ldt, double* u, const int* ldu, const double* tol,
-             int* iwork, double* dwork, const int* ldwork, kfx_fortran_logical* bwork, int* info,
-             std::size_t dico_len, std::size_t jobb_len, std::size_t fact_len, std::size_t uplo_len,
-             std::size_t jobl_len, std::size_t sort_len);
+void sb02od_(const char* dico, const char* jobb, const char* fact, const char* uplo, const char* jobl, const char* sort,
+             const int* n, const int* m, const int* p, const double* a, const int* lda, const double* b, const int* ldb,
+             double* q, const int* ldq, double* r, const int* ldr, double* l, const int* ldl, double* rcond, double* x,
+             const int* ldx, double* alfar, double* alfai, double* beta, double* s, const int* lds, double* t,
+             const int* ldt, double* u, const int* ldu, const double* tol, int* iwork, double* dwork, const int* ldwork,
+             kfx_fortran_logical* bwork, int* info, std::size_t dico_len, std::size_t jobb_len, std::size_t fact_len,
+             std::size_t uplo_len, std::size_t jobl_len, std::size_t sort_len);
 
 /// SLICOT SB03MD: continuous or discrete Lyapunov equation by the Schur method (Bartels-Stewart,
 /// Barraud). For dico = 'D': op(A)^T X op(A) - X = scale * C, op(A) = A (trana = 'N') or A^T

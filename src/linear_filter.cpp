@@ -23,8 +23,12 @@ void LinearFilter::Validate(const LinearFilterStep& s, const std::string& label)
 }
 
 LinearFilter::LinearFilter(LinearFilterStep step, Eigen::VectorXd z0, Eigen::MatrixXd O0)
-    : kind_(Kind::kInvariant), n_z_(step.Phi.rows()), m_(step.K.cols()), n_out_(OutputDim(step)),
-      z0_(std::move(z0)), O0_(O0.size() == 0 ? step.O : std::move(O0)) {
+    : kind_(Kind::kInvariant),
+      n_z_(step.Phi.rows()),
+      m_(step.K.cols()),
+      n_out_(OutputDim(step)),
+      z0_(std::move(z0)),
+      O0_(O0.size() == 0 ? step.O : std::move(O0)) {
   Validate(step, "");
   RequireVector("z0", z0_, n_z_);
   if (O0_.size() > 0) RequireShape("O0", O0_, n_out_, n_z_);
@@ -49,8 +53,14 @@ LinearFilter::LinearFilter(std::vector<LinearFilterStep> steps, Eigen::VectorXd 
 
 LinearFilter::LinearFilter(Eigen::Index n_z, Eigen::Index m, Eigen::Index n_out, StepFunction function,
                            Eigen::VectorXd z0, Eigen::MatrixXd O0, int horizon)
-    : kind_(Kind::kFunction), n_z_(n_z), m_(m), n_out_(n_out), horizon_(horizon < 0 ? -1 : horizon),
-      function_(std::move(function)), z0_(std::move(z0)), O0_(std::move(O0)) {
+    : kind_(Kind::kFunction),
+      n_z_(n_z),
+      m_(m),
+      n_out_(n_out),
+      horizon_(horizon < 0 ? -1 : horizon),
+      function_(std::move(function)),
+      z0_(std::move(z0)),
+      O0_(std::move(O0)) {
   if (!function_) throw Error("function: expected a callable, got an empty std::function");
   RequireVector("z0", z0_, n_z_);
   if (O0_.size() > 0) {
@@ -62,8 +72,8 @@ LinearFilter::LinearFilter(Eigen::Index n_z, Eigen::Index m, Eigen::Index n_out,
 
 LinearFilterStepPtr LinearFilter::step(int k) const {
   if (k < 1 || (horizon_ >= 0 && k > horizon_)) {
-    throw Error("k: expected a filter step in 1.." +
-                (horizon_ >= 0 ? std::to_string(horizon_) : std::string("inf")) + ", got " + std::to_string(k));
+    throw Error("k: expected a filter step in 1.." + (horizon_ >= 0 ? std::to_string(horizon_) : std::string("inf")) +
+                ", got " + std::to_string(k));
   }
   switch (kind_) {
     case Kind::kInvariant:

@@ -76,8 +76,7 @@ Model::Model(std::vector<ModelStep> steps, Eigen::VectorXd m0, Eigen::MatrixXd P
   ValidatePrior();
 }
 
-Model::Model(Eigen::Index n, Eigen::Index m, StepFunction function, Eigen::VectorXd m0, Eigen::MatrixXd P0,
-             int horizon)
+Model::Model(Eigen::Index n, Eigen::Index m, StepFunction function, Eigen::VectorXd m0, Eigen::MatrixXd P0, int horizon)
     : kind_(Kind::kFunction),
       n_(n),
       m_(m),

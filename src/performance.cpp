@@ -18,8 +18,8 @@ void CheckCompatible(const Model& truth, const LinearFilter& filter) {
                 " columns (the model's measurement dimension), got " + std::to_string(filter.meas_dim()));
   }
   if (filter.output_dim() != truth.state_dim()) {
-    throw Error("filter: expected an output map to the model's " + std::to_string(truth.state_dim()) +
-                " states, got " + std::to_string(filter.output_dim()) + " outputs");
+    throw Error("filter: expected an output map to the model's " + std::to_string(truth.state_dim()) + " states, got " +
+                std::to_string(filter.output_dim()) + " outputs");
   }
 }
 
@@ -72,9 +72,12 @@ Eigen::MatrixXd ErrorMoment(const Eigen::MatrixXd& Mxx, const Eigen::MatrixXd& M
 
 const char* ToString(StationaryMethod method) {
   switch (method) {
-    case StationaryMethod::kJoint: return "joint";
-    case StationaryMethod::kErrorCoordinates: return "error-coordinates";
-    case StationaryMethod::kNone: return "none";
+    case StationaryMethod::kJoint:
+      return "joint";
+    case StationaryMethod::kErrorCoordinates:
+      return "error-coordinates";
+    case StationaryMethod::kNone:
+      return "none";
   }
   return "?";
 }
@@ -122,8 +125,8 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
   Eigen::VectorXd mz = filter.z0();
 
   auto record = [&](int k, const Eigen::MatrixXd& O) {
-    const Eigen::MatrixXd E = ErrorMoment(Sxx + mx * mx.transpose(), Sxz + mx * mz.transpose(),
-                                          Szz + mz * mz.transpose(), O);
+    const Eigen::MatrixXd E =
+        ErrorMoment(Sxx + mx * mx.transpose(), Sxz + mx * mz.transpose(), Szz + mz * mz.transpose(), O);
     res.mse(k) = E.trace();
     res.weighted_mse(k) = WeightedTrace(options.weight, E);
     res.bias.row(k) = (mx - ApplyOutput(O, mz)).transpose();
@@ -136,15 +139,15 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
     const StepPtr s = truth.step(k);
     const LinearFilterStepPtr f = filter.step(k);
     // x' = A x + w;  y' = C x' + v;  z' = K y' + Phi z.
-    ASxz.noalias() = s->A * Sxz;                    // E[x' z^T]
+    ASxz.noalias() = s->A * Sxz;  // E[x' z^T]
     tmp.noalias() = s->A * Sxx;
     Sxx = s->Q;
-    Sxx.noalias() += tmp * s->A.transpose();        // E[x' x'^T]
+    Sxx.noalias() += tmp * s->A.transpose();  // E[x' x'^T]
     Symmetrize(Sxx);
-    Sxy.noalias() = Sxx * s->C.transpose();         // E[x' y'^T]
+    Sxy.noalias() = Sxx * s->C.transpose();  // E[x' y'^T]
     Syy = s->R;
-    Syy.noalias() += s->C * Sxy;                    // E[y' y'^T]
-    CASxz.noalias() = s->C * ASxz;                  // E[y' z^T]
+    Syy.noalias() += s->C * Sxy;    // E[y' y'^T]
+    CASxz.noalias() = s->C * ASxz;  // E[y' z^T]
     // Szz' = K Syy K^T + K E[y'z^T] Phi^T + Phi E[z y'^T] K^T + Phi Szz Phi^T
     Eigen::MatrixXd KCASxzPhit = f->K * CASxz * f->Phi.transpose();
     Eigen::MatrixXd Szz_new = f->Phi * Szz * f->Phi.transpose();
@@ -192,13 +195,14 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
     N.bottomRightCorner(nz, nz) = KC * s->Q * KC.transpose() + f->K * s->R * f->K.transpose();
     Symmetrize(N);
     const Eigen::MatrixXd Sigma = SolveDiscreteLyapunov(AA, N, &ls);
-    out.error_cov = ErrorMoment(Sigma.topLeftCorner(n, n), Sigma.topRightCorner(n, nz),
-                                Sigma.bottomRightCorner(nz, nz), f->O);
+    out.error_cov =
+        ErrorMoment(Sigma.topLeftCorner(n, n), Sigma.topRightCorner(n, nz), Sigma.bottomRightCorner(nz, nz), f->O);
     out.method = StationaryMethod::kJoint;
-    out.message = "joint Lyapunov equation (rho(A) = " + std::to_string(rho_a) +
-                  ", rho(Phi) = " + std::to_string(rho_phi) + ")";
+    out.message =
+        "joint Lyapunov equation (rho(A) = " + std::to_string(rho_a) + ", rho(Phi) = " + std::to_string(rho_phi) + ")";
   } else {
-    bool consistent = nz == n && (f->O.size() == 0 || (f->O - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff() <= 1e-12);
+    bool consistent =
+        nz == n && (f->O.size() == 0 || (f->O - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff() <= 1e-12);
     Eigen::MatrixXd IKC = Eigen::MatrixXd::Identity(n, n);
     if (consistent) {
       IKC.noalias() -= f->K * s->C;
@@ -216,11 +220,11 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
       }
     }
     if (out.method == StationaryMethod::kNone) {
-      out.message = rho_phi >= 1.0 ? "no stationary error: the filter is unstable (rho(Phi) = " + std::to_string(rho_phi) + ")"
-                                   : "no stationary error: the true system is unstable (rho(A) = " +
-                                         std::to_string(rho_a) +
-                                         ") and the filter is not consistent with it (Phi != (I - K C) A), so the "
-                                         "error grows with the state; use ExactPerformance over a finite horizon";
+      out.message = rho_phi >= 1.0
+                        ? "no stationary error: the filter is unstable (rho(Phi) = " + std::to_string(rho_phi) + ")"
+                        : "no stationary error: the true system is unstable (rho(A) = " + std::to_string(rho_a) +
+                              ") and the filter is not consistent with it (Phi != (I - K C) A), so the "
+                              "error grows with the state; use ExactPerformance over a finite horizon";
       out.mse = std::numeric_limits<double>::infinity();
       out.weighted_mse = out.mse;
       return out;
@@ -233,7 +237,8 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
   return out;
 }
 
-MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter, const MonteCarloOptions& options) {
+MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
+                                       const MonteCarloOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   CheckCompatible(truth, filter);

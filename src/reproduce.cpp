@@ -98,9 +98,13 @@ std::string FormatReportTable(const PaperReport& r) {
       wk = std::max(wk, it.key.size());
       wd = std::max(wd, std::min<size_t>(it.description.size(), 60));
     }
-    os << std::left << std::setw(static_cast<int>(wk)) << "key" << "  " << std::setw(static_cast<int>(wd))
-       << "description" << "  " << std::right << std::setw(13) << "published" << "  " << std::setw(13) << "kfx"
-       << "  " << std::setw(9) << "rel.diff" << "  " << "status\n";
+    os << std::left << std::setw(static_cast<int>(wk)) << "key"
+       << "  " << std::setw(static_cast<int>(wd)) << "description"
+       << "  " << std::right << std::setw(13) << "published"
+       << "  " << std::setw(13) << "kfx"
+       << "  " << std::setw(9) << "rel.diff"
+       << "  "
+       << "status\n";
     for (const auto& it : r.items) {
       const auto d = it.rel_diff();
       std::ostringstream rd;

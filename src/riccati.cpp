@@ -8,9 +8,11 @@
 //
 //  - kDoubling: structure-preserving doubling algorithm, E.K.-W. Chu, H.-Y. Fan, W.-W. Lin,
 //    "A structure-preserving doubling algorithm for continuous-time algebraic Riccati equations",
-//    Linear Algebra Appl. 396 (2005) 55-80, and its discrete-time form (SDA, Algorithm 2.1 of
-//    Chu, Fan, Lin, Wang, "Structure-preserving algorithms for periodic discrete-time algebraic
-//    Riccati equations", Int. J. Control 77 (2004) 767-788):
+//    Linear Algebra Appl. 396 (2005) 55-80, and its discrete-time form for
+//    X = Ã^T X (I + G X)^{-1} Ã + H (E.K.-W. Chu, H.-Y. Fan, W.-W. Lin, C.-S. Wang,
+//    "Structure-preserving algorithms for periodic discrete-time algebraic Riccati equations",
+//    Int. J. Control 77 (2004); convergence: W.-W. Lin, S.-F. Xu, SIAM J. Matrix Anal. Appl. 28
+//    (2006) 26-39):
 //        A_0 = Ã = A^T,  G_0 = C^T R^{-1} C,  H_0 = Q,   W_k = I + G_k H_k,
 //        A_{k+1} = A_k W_k^{-1} A_k,
 //        G_{k+1} = G_k + A_k W_k^{-1} G_k A_k^T,
@@ -103,12 +105,12 @@ bool Eigenvalues(const ConstRef& a_in, Eigen::VectorXcd* eig) {
   std::vector<double> wr(n), wi(n);
   double dummy = 0.0, work_query = 0.0;
   int lwork = -1, info = 0, one = 1;
-  dgeev_("N", "N", &n, a.data(), &n, wr.data(), wi.data(), &dummy, &one, &dummy, &one, &work_query, &lwork,
-         &info, 1, 1);
+  dgeev_("N", "N", &n, a.data(), &n, wr.data(), wi.data(), &dummy, &one, &dummy, &one, &work_query, &lwork, &info, 1,
+         1);
   lwork = std::max(static_cast<int>(work_query), 3 * n);
   std::vector<double> work(static_cast<std::size_t>(lwork));
-  dgeev_("N", "N", &n, a.data(), &n, wr.data(), wi.data(), &dummy, &one, &dummy, &one, work.data(), &lwork, &info,
-         1, 1);
+  dgeev_("N", "N", &n, a.data(), &n, wr.data(), wi.data(), &dummy, &one, &dummy, &one, work.data(), &lwork, &info, 1,
+         1);
   KFX_ASSERT(info >= 0);
   if (info != 0) return false;
   for (int i = 0; i < n; ++i) (*eig)(i) = std::complex<double>(wr[i], wi[i]);
@@ -133,14 +135,14 @@ double MinEigenvalue(const MatrixXd& p) {
   double w_query = 0.0, z_dummy = 0.0;
   std::vector<double> w(n);
   std::vector<int> isuppz(2 * static_cast<std::size_t>(n));
-  dsyevr_("N", "I", "U", &n, a.data(), &n, &vl, &vu, &il, &il, &abstol, &found, w.data(), &z_dummy, &one,
-          isuppz.data(), &w_query, &lwork, &iwork_query, &liwork, &info, 1, 1, 1);
+  dsyevr_("N", "I", "U", &n, a.data(), &n, &vl, &vu, &il, &il, &abstol, &found, w.data(), &z_dummy, &one, isuppz.data(),
+          &w_query, &lwork, &iwork_query, &liwork, &info, 1, 1, 1);
   lwork = std::max(static_cast<int>(w_query), 26 * n);
   liwork = std::max(iwork_query, 10 * n);
   std::vector<double> work(static_cast<std::size_t>(lwork));
   std::vector<int> iwork(static_cast<std::size_t>(liwork));
-  dsyevr_("N", "I", "U", &n, a.data(), &n, &vl, &vu, &il, &il, &abstol, &found, w.data(), &z_dummy, &one,
-          isuppz.data(), work.data(), &lwork, iwork.data(), &liwork, &info, 1, 1, 1);
+  dsyevr_("N", "I", "U", &n, a.data(), &n, &vl, &vu, &il, &il, &abstol, &found, w.data(), &z_dummy, &one, isuppz.data(),
+          work.data(), &lwork, iwork.data(), &liwork, &info, 1, 1, 1);
   KFX_ASSERT(info >= 0);
   if (info != 0 || found < 1) return std::numeric_limits<double>::quiet_NaN();
   return w[0];
@@ -148,7 +150,7 @@ double MinEigenvalue(const MatrixXd& p) {
 
 /// What a method hands to Finalize.
 struct Candidate {
-  MatrixXd P;  ///< empty if the method produced nothing usable.
+  MatrixXd P;                               ///< empty if the method produced nothing usable.
   DareStatus status = DareStatus::kFailed;  ///< kConverged if the method itself succeeded.
   std::string message;
   DareMethod method = DareMethod::kDoubling;
@@ -235,8 +237,8 @@ Candidate SolveByDoubling(const ConstRef& A, const ConstRef& C, const ConstRef& 
     if (change <= options.tolerance * h_norm) {
       out.P = std::move(H);
       out.status = DareStatus::kConverged;
-      out.message = "doubling converged in " + std::to_string(k) + " steps (relative change " +
-                    FormatDouble(last_change) + ")";
+      out.message =
+          "doubling converged in " + std::to_string(k) + " steps (relative change " + FormatDouble(last_change) + ")";
       return out;
     }
   }
@@ -251,8 +253,7 @@ Candidate SolveByDoubling(const ConstRef& A, const ConstRef& C, const ConstRef& 
 // ------------------------------------------------------------------------------------------------
 // Generalized Schur method: SLICOT SB02OD on the dual control problem (A^T, B = C^T, Q, R, L = 0).
 std::vector<double> ColumnMajorCopy(const ConstRef& m, int ld) {
-  std::vector<double> buf(static_cast<std::size_t>(ld) * static_cast<std::size_t>(std::max<Index>(m.cols(), 1)),
-                          0.0);
+  std::vector<double> buf(static_cast<std::size_t>(ld) * static_cast<std::size_t>(std::max<Index>(m.cols(), 1)), 0.0);
   for (Index j = 0; j < m.cols(); ++j)
     for (Index i = 0; i < m.rows(); ++i) buf[static_cast<std::size_t>(j) * ld + i] = m(i, j);
   return buf;
@@ -310,10 +311,9 @@ Candidate SolveBySchur(const ConstRef& A, const ConstRef& C, const ConstRef& Q, 
   double rcond = 0.0;
   const double tol = 0.0;  // SB02OD default (machine epsilon) for the pencil compression
   int info = 0;
-  sb02od_("D", "B", "N", "U", "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n, r.data(),
-          &ld_m, l.data(), &ld_l, &rcond, x.data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(),
-          &ld_st, t.data(), &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info,
-          1, 1, 1, 1, 1, 1);
+  sb02od_("D", "B", "N", "U", "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n, r.data(), &ld_m,
+          l.data(), &ld_l, &rcond, x.data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(), &ld_st, t.data(),
+          &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info, 1, 1, 1, 1, 1, 1);
   KFX_ASSERT(info >= 0);  // a negative info is an argument error: a bug here
   if (info != 0) {
     out.message = std::string("SB02OD failed (info ") + std::to_string(info) + "): " + Sb02odInfoText(info);
@@ -322,8 +322,9 @@ Candidate SolveBySchur(const ConstRef& A, const ConstRef& C, const ConstRef& Q, 
   out.P = Eigen::Map<const MatrixXd, 0, Eigen::OuterStride<>>(x.data(), n, n, Eigen::OuterStride<>(ld_n));
   out.status = DareStatus::kConverged;
   out.message = "SB02OD: rcond(U11) = " + FormatDouble(rcond);
-  if (rcond < 1e-10) out.message += " (ill-conditioned: expect a loss of about " +
-                                    FormatDouble(-std::log10(std::max(rcond, kTiny)), 2) + " digits)";
+  if (rcond < 1e-10)
+    out.message += " (ill-conditioned: expect a loss of about " + FormatDouble(-std::log10(std::max(rcond, kTiny)), 2) +
+                   " digits)";
   return out;
 }
 
@@ -569,10 +570,10 @@ Diagnosis Diagnose(const ConstRef& A, const ConstRef& C, const ConstRef& Q) {
     if (RankDeficient(stacked, &smin, &smax)) {
       diag.found = true;
       diag.status = DareStatus::kNotDetectable;
-      diag.message = "(A, C) is not detectable: the mode lambda = " + ComplexString(z) + " (|lambda| = " +
-                     FormatDouble(std::abs(z), 6) + ") is unobservable (sigma_min([A - lambda I; C]) = " +
-                     FormatDouble(smin) + " <= " + FormatDouble(kPbhRankTolerance) + " * " + FormatDouble(smax) +
-                     ")";
+      diag.message = "(A, C) is not detectable: the mode lambda = " + ComplexString(z) +
+                     " (|lambda| = " + FormatDouble(std::abs(z), 6) +
+                     ") is unobservable (sigma_min([A - lambda I; C]) = " + FormatDouble(smin) +
+                     " <= " + FormatDouble(kPbhRankTolerance) + " * " + FormatDouble(smax) + ")";
       return diag;
     }
   }
@@ -603,9 +604,7 @@ Diagnosis Diagnose(const ConstRef& A, const ConstRef& C, const ConstRef& Q) {
   return diag;
 }
 
-bool Usable(const DareSolution& s) {
-  return s.P_pred.size() > 0 && std::isfinite(s.summary.relative_residual);
-}
+bool Usable(const DareSolution& s) { return s.P_pred.size() > 0 && std::isfinite(s.summary.relative_residual); }
 
 }  // namespace
 
@@ -663,10 +662,9 @@ bool DareOptions::IsValid(std::string* error) const {
 
 std::string DareSummary::BriefReport() const {
   std::ostringstream os;
-  os << "DARE: " << ToString(status) << ", method " << ToString(method_used) << (fell_back ? " (fallback)" : "")
-     << ", " << iterations << " doubling steps, relative residual " << FormatDouble(relative_residual)
-     << ", rho(A - K_p C) " << FormatDouble(closed_loop_spectral_radius, 6) << ", " << FormatDouble(solve_seconds)
-     << " s";
+  os << "DARE: " << ToString(status) << ", method " << ToString(method_used) << (fell_back ? " (fallback)" : "") << ", "
+     << iterations << " doubling steps, relative residual " << FormatDouble(relative_residual) << ", rho(A - K_p C) "
+     << FormatDouble(closed_loop_spectral_radius, 6) << ", " << FormatDouble(solve_seconds) << " s";
   return os.str();
 }
 
@@ -730,8 +728,8 @@ DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const E
       DareSolution schur = Finalize(A, C, Q, R, SolveBySchur(A, C, Q, R), options);
       // Keep Schur if it succeeded, or if both failed and Schur has the smaller residual.
       const bool take_schur =
-          schur.summary.ok() || (Usable(schur) && (!Usable(sol) || schur.summary.relative_residual <
-                                                                       sol.summary.relative_residual));
+          schur.summary.ok() ||
+          (Usable(schur) && (!Usable(sol) || schur.summary.relative_residual < sol.summary.relative_residual));
       if (take_schur) {
         schur.summary.message = "doubling: " + doubling_message + "; fell back to Schur: " + schur.summary.message;
         sol = std::move(schur);
@@ -820,9 +818,10 @@ Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A
       for (Index j = i; j < n; ++j) min_gap = std::min(min_gap, std::abs(1.0 - eig(i) * eig(j)));
   }
   if (info == n + 1 || min_gap <= 64 * std::numeric_limits<double>::epsilon()) {
-    throw Error("A: the Stein equation X = A X A^T + Q is singular or nearly singular: A has eigenvalues with "
-                "lambda_i lambda_j ~= 1 (spectral radius " +
-                FormatDouble(rho, 17) + ")");
+    throw Error(
+        "A: the Stein equation X = A X A^T + Q is singular or nearly singular: A has eigenvalues with "
+        "lambda_i lambda_j ~= 1 (spectral radius " +
+        FormatDouble(rho, 17) + ")");
   }
   if (!(scale > 0.0)) {
     throw Error("A: SB03MD returned scale 0: the solution overflows (spectral radius " + FormatDouble(rho, 17) + ")");

@@ -60,14 +60,12 @@ void RequireSymmetric(const std::string& name, const Eigen::Ref<const Eigen::Mat
   const double asym = (m - m.transpose()).cwiseAbs().maxCoeff();
   if (asym > tol * scale) {
     std::ostringstream os;
-    os << name << ": expected a symmetric matrix, got max |M - M^T| = " << asym << " (tolerance "
-       << tol * scale << ")";
+    os << name << ": expected a symmetric matrix, got max |M - M^T| = " << asym << " (tolerance " << tol * scale << ")";
     throw Error(os.str());
   }
 }
 
-void RequirePositiveSemidefinite(const std::string& name, const Eigen::Ref<const Eigen::MatrixXd>& m,
-                                 double tol) {
+void RequirePositiveSemidefinite(const std::string& name, const Eigen::Ref<const Eigen::MatrixXd>& m, double tol) {
   RequireSymmetric(name, m);
   if (m.size() == 0) return;
   const double scale = std::max(1.0, m.diagonal().cwiseAbs().maxCoeff());
@@ -75,10 +73,10 @@ void RequirePositiveSemidefinite(const std::string& name, const Eigen::Ref<const
   shifted.diagonal().array() += tol * scale;
   Eigen::LLT<Eigen::MatrixXd> llt(shifted);
   if (llt.info() != Eigen::Success) {
-    const double min_eig = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(
-                               0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly)
-                               .eigenvalues()
-                               .minCoeff();
+    const double min_eig =
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly)
+            .eigenvalues()
+            .minCoeff();
     std::ostringstream os;
     os << name << ": expected a positive semidefinite matrix, got smallest eigenvalue " << min_eig;
     throw Error(os.str());
@@ -96,10 +94,10 @@ void RequirePositiveDefinite(const std::string& name, const Eigen::Ref<const Eig
     ok = min_pivot > tol * scale;
   }
   if (!ok) {
-    const double min_eig = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(
-                               0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly)
-                               .eigenvalues()
-                               .minCoeff();
+    const double min_eig =
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly)
+            .eigenvalues()
+            .minCoeff();
     std::ostringstream os;
     os << name << ": expected a positive definite matrix, got smallest eigenvalue " << min_eig;
     throw Error(os.str());

@@ -109,7 +109,8 @@ TEST(KalmanFilter, JosephAndStandardFormsAgreeOnWellConditionedProblem) {
   standard.update_form = CovarianceUpdateForm::kStandard;
   const KalmanSchedule a = ComputeKalmanSchedule(model, 50);
   const KalmanSchedule b = ComputeKalmanSchedule(model, 50, standard);
-  for (int k = 0; k <= 50; ++k) EXPECT_MATRICES_NEAR(a.P_filt[static_cast<size_t>(k)], b.P_filt[static_cast<size_t>(k)], 1e-12);
+  for (int k = 0; k <= 50; ++k)
+    EXPECT_MATRICES_NEAR(a.P_filt[static_cast<size_t>(k)], b.P_filt[static_cast<size_t>(k)], 1e-12);
 }
 
 TEST(KalmanFilter, ClassMatchesFunctionsAndRun) {
@@ -174,7 +175,7 @@ TEST(KalmanFilter, LogLikelihoodEqualsStackedGaussianDensityWithMissingData) {
   Model model(s, m0, P0);
   TimeSeries y = Simulate(model, 8, 99).y;
   EXPECT_NEAR(RunFilter(model, y).log_likelihood, BatchLogLikelihood(s, m0, P0, y), 1e-10);
-  y(2, 0) = kNaN;           // one entry missing
+  y(2, 0) = kNaN;            // one entry missing
   y(4, 0) = y(4, 1) = kNaN;  // a whole step missing
   const FilterRun run = RunFilter(model, y);
   EXPECT_NEAR(run.log_likelihood, BatchLogLikelihood(s, m0, P0, y), 1e-10);
@@ -267,7 +268,7 @@ TEST(RtsSmoother, SingularPredictedCovarianceUsesPseudoInverse) {
   const SmootherRun sm = RtsSmooth(model, RunFilter(model, y));
   EXPECT_TRUE(sm.x.allFinite());
   // Constant state seen through three measurements: every smoothed estimate is the posterior mean.
-  const double post = (1.0 + 1.2 + 0.8) / (0.5 + 3.0) ;  // prior var 1, noise var 0.5: mean = sum y / (0.5 + 3)
+  const double post = (1.0 + 1.2 + 0.8) / (0.5 + 3.0);  // prior var 1, noise var 0.5: mean = sum y / (0.5 + 3)
   for (int k = 0; k <= 3; ++k) EXPECT_NEAR(sm.x(k, 0), post, 1e-12);
 }
 

@@ -141,7 +141,7 @@ TEST(LyapunovValidation, InvalidInputThrowsNamingTheArgument) {
   EXPECT_THROW(SpectralRadius(MatrixXd::Ones(2, 3)), Error);
 }
 
-TEST(SpectralRadius, MatchesKnownEigenvalues) {
+TEST(LyapunovSpectralRadius, MatchesKnownEigenvalues) {
   EXPECT_NEAR(SpectralRadius(0.8 * Eigen::Rotation2Dd(1.0).toRotationMatrix()), 0.8, 1e-15);
   EXPECT_NEAR(SpectralRadius((MatrixXd(3, 3) << -3, 1, 0, 0, 2, 1, 0, 0, 1).finished()), 3.0, 1e-15);
   EXPECT_EQ(SpectralRadius(MatrixXd::Zero(4, 4)), 0.0);

@@ -93,7 +93,8 @@ TEST(Model, EveryValidationErrorNamesItsArgument) {
   ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "Q");
   ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "semidefinite");
   ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); }, "R");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); }, "positive definite");
+  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); },
+                    "positive definite");
   ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Identity(2, 2); }), m0, P0); }, "R");
   ExpectErrorNaming([&] { Model(with([&](ModelStep& s) { s.R(0, 0) = nan; }), m0, P0); }, "R");
   ExpectErrorNaming([&] { Model(GoodStep(), VectorXd::Zero(3), P0); }, "m0");
@@ -106,7 +107,8 @@ TEST(Model, EveryValidationErrorNamesItsArgument) {
   steps[2].R(0, 0) = -1;
   ExpectErrorNaming([&] { Model(steps, m0, P0); }, "step 3: R");
   // Callback steps are validated when asked for.
-  Model fun(2, 1, [&](int) { return steps[2]; }, m0, P0);
+  Model fun(
+      2, 1, [&](int) { return steps[2]; }, m0, P0);
   ExpectErrorNaming([&] { fun.step(1); }, "step 1: R");
   ExpectErrorNaming([&] { Model(2, 1, Model::StepFunction(), m0, P0); }, "function");
 }

@@ -87,7 +87,8 @@ TEST(ExactPerformance, MismatchedFilterAgreesWithMonteCarlo) {
   for (int k = 0; k <= T; ++k) {
     const double z = std::abs(exact.mse(k) - mc.mse(k)) / mc.mse_std_error(k);
     const double zw = std::abs(exact.weighted_mse(k) - mc.weighted_mse(k)) / mc.weighted_mse_std_error(k);
-    EXPECT_LT(z, 4.5) << "k = " << k << " exact " << exact.mse(k) << " mc " << mc.mse(k) << " +- " << mc.mse_std_error(k);
+    EXPECT_LT(z, 4.5) << "k = " << k << " exact " << exact.mse(k) << " mc " << mc.mse(k) << " +- "
+                      << mc.mse_std_error(k);
     EXPECT_LT(zw, 4.5) << "k = " << k;
     outside += z > 1.96;
   }
@@ -135,7 +136,8 @@ TEST(ExactPerformance, StationaryErrorCoordinatesForUnstableTruthAndConsistentFi
   // A filter with a wrong A is not consistent with the unstable truth: no stationary value.
   ModelStep wrong = s;
   wrong.A(0, 1) = 0.9;
-  const StationaryPerformance none = ExactStationaryPerformance(truth, ConstantGainFilter(wrong, dare.filter_gain, VectorXd::Zero(2)));
+  const StationaryPerformance none =
+      ExactStationaryPerformance(truth, ConstantGainFilter(wrong, dare.filter_gain, VectorXd::Zero(2)));
   EXPECT_EQ(none.method, StationaryMethod::kNone);
   EXPECT_FALSE(none.exists());
   EXPECT_TRUE(std::isinf(none.mse));
@@ -148,7 +150,8 @@ TEST(ExactPerformance, InvalidInputsThrow) {
   PerformanceOptions po;
   po.steps = 3;
   EXPECT_THROW(ExactPerformance(truth, wrong_m, po), Error);
-  LinearFilter wrong_out(LinearFilterStep{MatrixXd::Identity(3, 3), MatrixXd::Ones(3, 1), MatrixXd()}, VectorXd::Zero(3));
+  LinearFilter wrong_out(LinearFilterStep{MatrixXd::Identity(3, 3), MatrixXd::Ones(3, 1), MatrixXd()},
+                         VectorXd::Zero(3));
   EXPECT_THROW(ExactPerformance(truth, wrong_out, po), Error);
   LinearFilter ok(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 1), MatrixXd()}, VectorXd::Zero(2));
   EXPECT_THROW(ExactPerformance(truth, ok), Error);  // no horizon anywhere
@@ -158,8 +161,12 @@ TEST(ExactPerformance, InvalidInputsThrow) {
   mo.runs = 1;
   mo.steps = 3;
   EXPECT_THROW(MonteCarloPerformance(truth, ok, mo), Error);
-  EXPECT_THROW(LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(3, 1), MatrixXd()}, VectorXd::Zero(2)), Error);
-  EXPECT_THROW(LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 1), MatrixXd()}, VectorXd::Zero(3)), Error);
+  EXPECT_THROW(
+      LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(3, 1), MatrixXd()}, VectorXd::Zero(2)),
+      Error);
+  EXPECT_THROW(
+      LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 1), MatrixXd()}, VectorXd::Zero(3)),
+      Error);
 }
 
 TEST(RunLinearFilter, KalmanAsLinearFilterReproducesTheOnlineFilter) {

@@ -11,8 +11,8 @@ namespace kfx {
 namespace {
 
 TEST(Reproduce, PaperIdsAreTheContract) {
-  EXPECT_EQ(PaperIds(), (std::vector<std::string>{"aalto-spatial", "bernstein", "patel-toda", "aalto-temporal",
-                                                   "block-diagonal"}));
+  EXPECT_EQ(PaperIds(),
+            (std::vector<std::string>{"aalto-spatial", "bernstein", "patel-toda", "aalto-temporal", "block-diagonal"}));
   for (const auto& id : PaperIds()) EXPECT_EQ(Reproduce(id, ReproduceOptions{true, "", {}}).paper, id);
   try {
     Reproduce("all");  // 'all' is the CLI's loop, not a paper

@@ -70,7 +70,7 @@ double ScalarDare(double a, double c, double q, double r) {
 }
 
 TEST(DareScalar, MatchesPositiveRootOfTheQuadratic) {
-  const double cases[][4] = {{0.5, 1.0, 1.0, 1.0}, {1.5, 2.0, 0.3, 0.7}, {-3.0, 0.5, 2.0, 4.0},
+  const double cases[][4] = {{0.5, 1.0, 1.0, 1.0},   {1.5, 2.0, 0.3, 0.7},   {-3.0, 0.5, 2.0, 4.0},
                              {0.99, 1e-3, 1.0, 1.0}, {20.0, 1.0, 1e-4, 1e2}, {1.0, 1.0, 1.0, 1.0}};
   for (const auto& k : cases) {
     const double a = k[0], c = k[1], q = k[2], r = k[3];
@@ -314,6 +314,17 @@ TEST(DareDiagnosis, UnobservedUnstableModeWithoutNoiseIsNotDetectable) {
   }
 }
 
+TEST(DareDiagnosis, UnobservedModeOnTheUnitCircleIsNotDetectable) {
+  // Double integrator measuring only the velocity: the position (a defective eigenvalue 1) is
+  // unobservable and integrates noise, so P grows without bound. |lambda| = 1 counts as undetectable.
+  const MatrixXd A = (MatrixXd(2, 2) << 1, 1, 0, 1).finished();
+  const MatrixXd C = (MatrixXd(1, 2) << 0, 1).finished();
+  for (DareMethod method : {DareMethod::kAuto, DareMethod::kDoubling, DareMethod::kSchur}) {
+    const DareSolution s = SolveFilterDare(A, C, MatrixXd::Identity(2, 2), MatrixXd::Ones(1, 1), WithMethod(method));
+    EXPECT_EQ(s.summary.status, DareStatus::kNotDetectable) << ToString(method) << ": " << s.summary.FullReport();
+  }
+}
+
 TEST(DareDiagnosis, NoiselessModeOnTheUnitCircleIsNotStabilizable) {
   // Observable, but the unit-circle modes get no process noise (Q = 0). P = 0 solves the DARE
   // (it is the limit of the Riccati recursion from P_0 = 0) but A - K_p C = A has rho = 1, so no
@@ -401,8 +412,9 @@ TEST(DareValidation, EveryInvalidInputThrowsNamingTheArgument) {
   ExpectErrorNaming("R", [&] { SolveFilterDare(A, C, Q, MatrixXd::Identity(2, 2)); });
   ExpectErrorNaming("R", [&] { SolveFilterDare(A, C, Q, MatrixXd::Zero(1, 1)); });
   ExpectErrorNaming("R", [&] { SolveFilterDare(A, C, Q, MatrixXd::Constant(1, 1, -1)); });
-  ExpectErrorNaming("R", [&] { SolveFilterDare(A, MatrixXd::Ones(2, 2), MatrixXd::Identity(2, 2),
-                                               (MatrixXd(2, 2) << 1, 1, 1, 1).finished()); });  // singular
+  ExpectErrorNaming("R", [&] {
+    SolveFilterDare(A, MatrixXd::Ones(2, 2), MatrixXd::Identity(2, 2), (MatrixXd(2, 2) << 1, 1, 1, 1).finished());
+  });  // singular
   const auto with_options = [&](const std::function<void(DareOptions&)>& edit) {
     DareOptions options;
     edit(options);
@@ -438,10 +450,12 @@ TEST(DareResidual, IsZeroAtTheSolutionAndValidatesItsInput) {
 }
 
 TEST(DareReport, NamesStatusAndMethod) {
-  const std::pair<DareStatus, const char*> statuses[] = {
-      {DareStatus::kConverged, "converged"},           {DareStatus::kNotConverged, "not_converged"},
-      {DareStatus::kNotStabilizing, "not_stabilizing"}, {DareStatus::kNotDetectable, "not_detectable"},
-      {DareStatus::kNotStabilizable, "not_stabilizable"}, {DareStatus::kFailed, "failed"}};
+  const std::pair<DareStatus, const char*> statuses[] = {{DareStatus::kConverged, "converged"},
+                                                         {DareStatus::kNotConverged, "not_converged"},
+                                                         {DareStatus::kNotStabilizing, "not_stabilizing"},
+                                                         {DareStatus::kNotDetectable, "not_detectable"},
+                                                         {DareStatus::kNotStabilizable, "not_stabilizable"},
+                                                         {DareStatus::kFailed, "failed"}};
   for (const auto& [status, text] : statuses) EXPECT_STREQ(ToString(status), text);
   EXPECT_STREQ(ToString(DareMethod::kAuto), "auto");
   EXPECT_STREQ(ToString(DareMethod::kDoubling), "doubling");

@@ -30,9 +30,9 @@ TEST(Rng, NormalMomentsWithinConfidenceInterval) {
     s2 += x * x;
     s4 += x * x * x * x;
   }
-  EXPECT_LT(std::abs(s / N), 4.5 / std::sqrt(N));                   // sd of mean = 1/sqrt(N)
-  EXPECT_LT(std::abs(s2 / N - 1), 4.5 * std::sqrt(2.0 / N));        // var of x^2 = 2
-  EXPECT_LT(std::abs(s4 / N - 3), 4.5 * std::sqrt(96.0 / N));       // var of x^4 = 105 - 9
+  EXPECT_LT(std::abs(s / N), 4.5 / std::sqrt(N));              // sd of mean = 1/sqrt(N)
+  EXPECT_LT(std::abs(s2 / N - 1), 4.5 * std::sqrt(2.0 / N));   // var of x^2 = 2
+  EXPECT_LT(std::abs(s4 / N - 3), 4.5 * std::sqrt(96.0 / N));  // var of x^4 = 105 - 9
 }
 
 TEST(PsdFactor, ReproducesSemidefiniteMatrices) {
@@ -77,7 +77,8 @@ TEST(Simulate, ReproducibleShapesAndCovariance) {
     for (Eigen::Index j = 0; j < n; ++j)
       EXPECT_LT(std::abs(cov(i, j) - P1(i, j)), 4.5 * std::sqrt((P1(i, i) * P1(j, j) + P1(i, j) * P1(i, j)) / N));
   const MatrixXd S = C * P1 * C.transpose() + R;
-  for (Eigen::Index i = 0; i < m; ++i) EXPECT_LT(std::abs(ycov(i, i) - S(i, i)), 4.5 * std::sqrt(2 * S(i, i) * S(i, i) / N));
+  for (Eigen::Index i = 0; i < m; ++i)
+    EXPECT_LT(std::abs(ycov(i, i) - S(i, i)), 4.5 * std::sqrt(2 * S(i, i) * S(i, i) / N));
   EXPECT_THROW(SimulateBatch(model, 2, -1, 1), Error);
   EXPECT_THROW(Simulate(model, -1, 1), Error);  // no horizon
 }

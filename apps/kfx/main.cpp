@@ -85,9 +85,9 @@ int RunSimulate(const SimulateArgs& a) {
   WriteTimeSeries(Join(a.out, "x" + ext), tr.x);
   WriteTimeSeries(Join(a.out, "y" + ext), tr.y);
   std::cout << "simulated " << a.steps << " steps (n = " << model.state_dim() << ", m = " << model.meas_dim()
-            << ", seed " << a.seed << ")\n  " << Join(a.out, "x" + ext) << "  states x_0..x_T, shape ("
-            << tr.x.rows() << ", " << tr.x.cols() << ")\n  " << Join(a.out, "y" + ext)
-            << "  measurements y_1..y_T, shape (" << tr.y.rows() << ", " << tr.y.cols() << ")\n";
+            << ", seed " << a.seed << ")\n  " << Join(a.out, "x" + ext) << "  states x_0..x_T, shape (" << tr.x.rows()
+            << ", " << tr.x.cols() << ")\n  " << Join(a.out, "y" + ext) << "  measurements y_1..y_T, shape ("
+            << tr.y.rows() << ", " << tr.y.cols() << ")\n";
   return 0;
 }
 
@@ -164,8 +164,8 @@ int RunAnalyze(const AnalyzeArgs& a) {
   if (design.time_invariant()) {
     const StepPtr s = design.step(1);
     const DareSolution dare = SolveFilterDare(s->A, s->C, s->Q, s->R);
-    std::cout << "steady state (filter DARE" << (a.design.empty() ? "" : " of the design model") << "): "
-              << dare.summary.BriefReport() << "\n";
+    std::cout << "steady state (filter DARE" << (a.design.empty() ? "" : " of the design model")
+              << "): " << dare.summary.BriefReport() << "\n";
     j["dare"] = {{"status", ToString(dare.summary.status)},
                  {"method", ToString(dare.summary.method_used)},
                  {"relative_residual", dare.summary.relative_residual},
@@ -230,7 +230,8 @@ int RunAnalyze(const AnalyzeArgs& a) {
       std::cout << std::setprecision(6) << std::setw(6) << k << "  " << std::setw(11) << exact.mse(k) << "  "
                 << std::setw(11) << mc.mse(k) << "  " << std::setw(11) << mc.mse_std_error(k) << "  " << std::setw(6)
                 << std::setprecision(2) << z;
-      nlohmann::ordered_json row = {{"k", k}, {"exact", exact.mse(k)}, {"monte_carlo", mc.mse(k)}, {"std_error", mc.mse_std_error(k)}};
+      nlohmann::ordered_json row = {
+          {"k", k}, {"exact", exact.mse(k)}, {"monte_carlo", mc.mse(k)}, {"std_error", mc.mse_std_error(k)}};
       if (mismatch) {
         const double claimed = design_schedule.P_filt[static_cast<size_t>(k)].trace();
         const double best = optimal.P_filt[static_cast<size_t>(k)].trace();
@@ -242,7 +243,8 @@ int RunAnalyze(const AnalyzeArgs& a) {
       rows.push_back(row);
     }
     if (mismatch) {
-      std::cout << "  (filter claims = trace of the mismatched filter's own P_{k|k}; the engine gives its true error)\n";
+      std::cout
+          << "  (filter claims = trace of the mismatched filter's own P_{k|k}; the engine gives its true error)\n";
     }
     j["monte_carlo"] = {{"runs", mc.runs}, {"seed", a.seed}, {"rows", rows}};
   }
@@ -310,14 +312,16 @@ int Main(int argc, char** argv) {
   c_smo->add_flag("--csv", smo.csv, "Write CSV instead of .npy");
 
   AnalyzeArgs ana;
-  auto* c_ana = app.add_subcommand("analyze",
-                                   "Steady state (DARE): covariances, both gains, closed-loop spectral radius, residual; "
-                                   "optionally exact vs Monte Carlo MSE");
+  auto* c_ana =
+      app.add_subcommand("analyze",
+                         "Steady state (DARE): covariances, both gains, closed-loop spectral radius, residual; "
+                         "optionally exact vs Monte Carlo MSE");
   c_ana->add_option("model", ana.model, "True model file")->required();
   c_ana->add_option("--design", ana.design, "Design the filter on this model instead (mismatch study)");
   c_ana->add_option("--monte-carlo", ana.monte_carlo, "Also compare exact and Monte Carlo MSE with this many runs")
       ->check(CLI::Range(0, 2000000000));
-  c_ana->add_option("--steps", ana.steps, "Horizon of the exact/Monte Carlo comparison")->check(CLI::Range(1, 2000000000));
+  c_ana->add_option("--steps", ana.steps, "Horizon of the exact/Monte Carlo comparison")
+      ->check(CLI::Range(1, 2000000000));
   c_ana->add_option("--seed", ana.seed, "Monte Carlo seed");
   c_ana->add_option("--json", ana.json, "Write the results as JSON");
 
@@ -325,7 +329,9 @@ int Main(int argc, char** argv) {
   auto* c_rep = app.add_subcommand("reproduce", "Put a paper's published numbers beside kfx's");
   std::vector<std::string> choices = PaperIds();
   choices.push_back("all");
-  c_rep->add_option("paper", rep.paper, "One of: aalto-spatial, bernstein, patel-toda, aalto-temporal, block-diagonal, all")
+  c_rep
+      ->add_option("paper", rep.paper,
+                   "One of: aalto-spatial, bernstein, patel-toda, aalto-temporal, block-diagonal, all")
       ->required()
       ->check(CLI::IsMember(choices));
   c_rep->add_option("--json", rep.json, "Write the items as JSON");

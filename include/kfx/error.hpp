@@ -27,8 +27,7 @@ namespace detail {
 
 }  // namespace kfx
 
-#define KFX_ASSERT(cond) \
-  ((cond) ? static_cast<void>(0) : ::kfx::detail::AssertFail(#cond, __FILE__, __LINE__))
+#define KFX_ASSERT(cond) ((cond) ? static_cast<void>(0) : ::kfx::detail::AssertFail(#cond, __FILE__, __LINE__))
 
 namespace kfx {
 /// Raised when a computation breaks down numerically on valid input (e.g. an innovation

@@ -42,12 +42,12 @@ struct KalmanFilterOptions {
 
 /// The result of one measurement update.
 struct UpdateResult {
-  Estimate estimate;            ///< x_{k|k}, P_{k|k}
-  Eigen::VectorXd innovation;   ///< nu_k over the observed entries (length num_observed)
-  Eigen::MatrixXd innovation_cov;  ///< S_k over the observed entries
-  Eigen::MatrixXd gain;         ///< n x num_observed filter gain K_k
+  Estimate estimate;                   ///< x_{k|k}, P_{k|k}
+  Eigen::VectorXd innovation;          ///< nu_k over the observed entries (length num_observed)
+  Eigen::MatrixXd innovation_cov;      ///< S_k over the observed entries
+  Eigen::MatrixXd gain;                ///< n x num_observed filter gain K_k
   std::vector<Eigen::Index> observed;  ///< indices of the observed entries of y_k
-  double log_likelihood = 0.0;  ///< the step's log-likelihood term (0 when nothing is observed)
+  double log_likelihood = 0.0;         ///< the step's log-likelihood term (0 when nothing is observed)
 };
 
 /// Time update with step matrices s. @throws kfx::Error on dimension mismatch.
@@ -91,13 +91,13 @@ struct FilterRunOptions {
 
 /// A whole-sequence filter run on measurements y (T x m, row k-1 = y_k, NaN = missing).
 struct FilterRun {
-  TimeSeries x_filt;       ///< (T+1) x n, row k = x_{k|k}; row 0 = m0
-  TimeSeries x_pred;       ///< (T+1) x n, row k = x_{k|k-1}; row 0 = m0
-  TimeSeries P_filt_diag;  ///< (T+1) x n, diagonals of P_{k|k}; row 0 = diag P0
-  TimeSeries P_pred_diag;  ///< (T+1) x n
-  std::vector<Eigen::MatrixXd> P_filt;  ///< T+1 matrices if stored (index k), else empty
-  std::vector<Eigen::MatrixXd> P_pred;  ///< T+1 matrices if stored (index 0 = P0), else empty
-  TimeSeries innovations;  ///< T x m, NaN where the measurement was missing
+  TimeSeries x_filt;                     ///< (T+1) x n, row k = x_{k|k}; row 0 = m0
+  TimeSeries x_pred;                     ///< (T+1) x n, row k = x_{k|k-1}; row 0 = m0
+  TimeSeries P_filt_diag;                ///< (T+1) x n, diagonals of P_{k|k}; row 0 = diag P0
+  TimeSeries P_pred_diag;                ///< (T+1) x n
+  std::vector<Eigen::MatrixXd> P_filt;   ///< T+1 matrices if stored (index k), else empty
+  std::vector<Eigen::MatrixXd> P_pred;   ///< T+1 matrices if stored (index 0 = P0), else empty
+  TimeSeries innovations;                ///< T x m, NaN where the measurement was missing
   Eigen::VectorXd log_likelihood_terms;  ///< length T
   double log_likelihood = 0.0;           ///< sum of the terms
   std::vector<int> num_observed;         ///< length T
@@ -107,8 +107,8 @@ struct FilterRun {
 FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options = {});
 
 struct SmootherRun {
-  TimeSeries x;       ///< (T+1) x n, row k = x_{k|T}
-  TimeSeries P_diag;  ///< (T+1) x n
+  TimeSeries x;                    ///< (T+1) x n, row k = x_{k|T}
+  TimeSeries P_diag;               ///< (T+1) x n
   std::vector<Eigen::MatrixXd> P;  ///< T+1 matrices P_{k|T}
 };
 

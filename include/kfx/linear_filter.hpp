@@ -34,8 +34,8 @@ class LinearFilter {
   LinearFilter(Eigen::Index n_z, Eigen::Index m, Eigen::Index n_out, StepFunction function, Eigen::VectorXd z0,
                Eigen::MatrixXd O0, int horizon = -1);
 
-  Eigen::Index state_dim() const { return n_z_; }   ///< n_z
-  Eigen::Index meas_dim() const { return m_; }      ///< m
+  Eigen::Index state_dim() const { return n_z_; }     ///< n_z
+  Eigen::Index meas_dim() const { return m_; }        ///< m
   Eigen::Index output_dim() const { return n_out_; }  ///< n_out (the estimated state's dimension)
   bool time_invariant() const { return kind_ == Kind::kInvariant; }
   int horizon() const { return horizon_; }

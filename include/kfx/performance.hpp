@@ -32,9 +32,9 @@ struct PerformanceOptions {
 };
 
 struct PerformanceResult {
-  Eigen::VectorXd mse;           ///< length T+1: tr E[e_k e_k^T], k = 0..T
-  Eigen::VectorXd weighted_mse;  ///< length T+1: tr(W E[e_k e_k^T])
-  TimeSeries bias;               ///< (T+1) x n: E[e_k]
+  Eigen::VectorXd mse;                        ///< length T+1: tr E[e_k e_k^T], k = 0..T
+  Eigen::VectorXd weighted_mse;               ///< length T+1: tr(W E[e_k e_k^T])
+  TimeSeries bias;                            ///< (T+1) x n: E[e_k]
   std::vector<Eigen::MatrixXd> error_moment;  ///< E[e_k e_k^T], k = 0..T (if stored)
 };
 
@@ -54,9 +54,9 @@ const char* ToString(StationaryMethod method);
 struct StationaryPerformance {
   StationaryMethod method = StationaryMethod::kNone;
   std::string message;
-  Eigen::MatrixXd error_cov;  ///< stationary E[e e^T] (empty when method == kNone)
-  double mse = 0.0;           ///< tr error_cov (inf when kNone)
-  double weighted_mse = 0.0;  ///< tr(W error_cov)
+  Eigen::MatrixXd error_cov;       ///< stationary E[e e^T] (empty when method == kNone)
+  double mse = 0.0;                ///< tr error_cov (inf when kNone)
+  double weighted_mse = 0.0;       ///< tr(W error_cov)
   double lyapunov_residual = 0.0;  ///< relative residual of the Lyapunov solve
   bool exists() const { return method != StationaryMethod::kNone; }
 };
@@ -72,10 +72,10 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
                                                  const Eigen::MatrixXd& weight = Eigen::MatrixXd());
 
 struct MonteCarloOptions {
-  int runs = 1000;          ///< number of independent runs, >= 2
-  std::uint64_t seed = 1;   ///< run i uses Rng::StreamSeed(seed, i)
-  int steps = -1;           ///< as in PerformanceOptions
-  Eigen::MatrixXd weight;   ///< as in PerformanceOptions
+  int runs = 1000;                   ///< number of independent runs, >= 2
+  std::uint64_t seed = 1;            ///< run i uses Rng::StreamSeed(seed, i)
+  int steps = -1;                    ///< as in PerformanceOptions
+  Eigen::MatrixXd weight;            ///< as in PerformanceOptions
   bool store_error_moments = false;  ///< average e_k e_k^T over runs
   ProgressCallback progress;
   bool IsValid(std::string* error) const;
@@ -83,11 +83,11 @@ struct MonteCarloOptions {
 
 struct MonteCarloResult {
   int runs = 0;
-  Eigen::VectorXd mse;                     ///< sample mean of |e_k|^2, k = 0..T
-  Eigen::VectorXd mse_std_error;           ///< its standard error (sample std / sqrt(runs))
-  Eigen::VectorXd weighted_mse;            ///< sample mean of e_k^T W e_k
-  Eigen::VectorXd weighted_mse_std_error;  ///< its standard error
-  TimeSeries bias;                         ///< sample mean of e_k
+  Eigen::VectorXd mse;                        ///< sample mean of |e_k|^2, k = 0..T
+  Eigen::VectorXd mse_std_error;              ///< its standard error (sample std / sqrt(runs))
+  Eigen::VectorXd weighted_mse;               ///< sample mean of e_k^T W e_k
+  Eigen::VectorXd weighted_mse_std_error;     ///< its standard error
+  TimeSeries bias;                            ///< sample mean of e_k
   std::vector<Eigen::MatrixXd> error_moment;  ///< sample mean of e_k e_k^T (if stored)
 };
 

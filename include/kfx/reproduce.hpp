@@ -30,15 +30,15 @@ struct ReproduceItem {
 };
 
 struct ReproduceOptions {
-  bool quick = false;      ///< small, fast versions (tests, CI)
-  std::string out_dir;     ///< where figures/data go (empty: none written)
+  bool quick = false;   ///< small, fast versions (tests, CI)
+  std::string out_dir;  ///< where figures/data go (empty: none written)
   ProgressCallback progress;
 };
 
 struct PaperReport {
-  std::string paper;        ///< one of PaperIds()
+  std::string paper;  ///< one of PaperIds()
   std::string title;
-  std::string source;       ///< ../shared/papers file
+  std::string source;  ///< ../shared/papers file
   std::vector<ReproduceItem> items;
   std::vector<std::string> figures;  ///< paths written
   std::vector<std::string> notes;    ///< free text shown under the table

@@ -50,9 +50,11 @@ struct DareSummary {
   DareStatus status = DareStatus::kFailed;
   std::string message;
   DareMethod method_used = DareMethod::kAuto;  ///< kDoubling or kSchur: what produced the result.
-  bool fell_back = false;                      ///< kAuto: doubling failed and Schur was used.
-  int iterations = 0;                          ///< doubling steps (0 for Schur).
-  int refinement_steps = 0;                    ///< accepted refinement steps (DareOptions::refine).
+  /// kAuto: doubling failed and Schur was tried (method_used says whose result is returned: Schur's
+  /// if it succeeded or, when both failed, the one with the smaller residual).
+  bool fell_back = false;
+  int iterations = 0;        ///< doubling steps (0 for kSchur; after a kAuto fallback, doubling's steps).
+  int refinement_steps = 0;  ///< accepted refinement steps (DareOptions::refine).
   /// |P - A P A^T - Q + A P C^T S^{-1} C P A^T|_F / max(|P|_F, tiny), evaluated in double.
   double relative_residual = 0.0;
   double closed_loop_spectral_radius = 0.0;  ///< rho(A - K_p C)
@@ -104,10 +106,10 @@ struct LyapunovSummary {
 /// @throws kfx::Error on invalid input, or if the equation is singular (eigenvalue pair with
 ///         lambda_i lambda_j = 1), with the spectral radius in the message.
 Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A,
-                                      const Eigen::Ref<const Eigen::MatrixXd>& Q,
-                                      LyapunovSummary* summary = nullptr);
+                                      const Eigen::Ref<const Eigen::MatrixXd>& Q, LyapunovSummary* summary = nullptr);
 
-/// Spectral radius max |lambda_i(A)|.
+/// Spectral radius max |lambda_i(A)| (eigenvalues by LAPACK DGEEV; 0 for a 0 x 0 matrix).
+/// @throws kfx::Error if A is not square or not finite.
 double SpectralRadius(const Eigen::Ref<const Eigen::MatrixXd>& A);
 
 }  // namespace kfx

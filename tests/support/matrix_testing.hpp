@@ -8,6 +8,8 @@
 #include <sstream>
 #include <string>
 
+#include "kfx/riccati.hpp"
+
 namespace kfx::testing {
 
 /// Fails unless max |a - b| <= tol (absolute) and the shapes agree. No default tolerance on purpose.
@@ -55,8 +57,9 @@ class TestRng {
   /// A random matrix scaled to spectral radius rho.
   Eigen::MatrixXd WithSpectralRadius(Eigen::Index n, double rho) {
     Eigen::MatrixXd a = Gaussian(n, n);
-    const double r = a.eigenvalues().cwiseAbs().maxCoeff();
-    return a * (rho / r);
+    // kfx::SpectralRadius, not a.eigenvalues(): one EigenSolver instantiation in the library
+    // instead of one per test file (compile time).
+    return a * (rho / kfx::SpectralRadius(a));
   }
 
  private:
