@@ -1,5 +1,5 @@
 // One Kalman filter step (predict + Joseph-form update) at n = 10, 100, 1000 with m = max(1, n/10).
-// Counter GFLOP/s counts the flops the step needs (not a naive count):
+// Counter GFLOP (a rate: GFLOP/s) counts the flops the step needs (not a naive count):
 //   predict  A P A^T: 2 n^3 + 2 n^3 = 4 n^3 (two GEMMs)
 //   update   U = P C^T: 2 n^2 m, S = C U + R: 2 n m^2, Cholesky m^3/3, K = U S^-1: 2 n m^2,
 //            Joseph (I - K C) P (I - K C)^T + K R K^T in O(n^2 m): 8 n^2 m + 2 n m^2
@@ -42,7 +42,7 @@ void BM_KalmanStep(benchmark::State& state) {
   }
   state.counters["n"] = static_cast<double>(n);
   state.counters["m"] = static_cast<double>(m);
-  state.counters["GFLOP/s"] = benchmark::Counter(StepFlops(static_cast<double>(n), static_cast<double>(m)) * 1e-9,
+  state.counters["GFLOP"] = benchmark::Counter(StepFlops(static_cast<double>(n), static_cast<double>(m)) * 1e-9,
                                                  benchmark::Counter::kIsIterationInvariantRate);
 }
 
