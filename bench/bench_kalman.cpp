@@ -43,7 +43,7 @@ void BM_KalmanStep(benchmark::State& state) {
   state.counters["n"] = static_cast<double>(n);
   state.counters["m"] = static_cast<double>(m);
   state.counters["GFLOP"] = benchmark::Counter(StepFlops(static_cast<double>(n), static_cast<double>(m)) * 1e-9,
-                                                 benchmark::Counter::kIsIterationInvariantRate);
+                                               benchmark::Counter::kIsIterationInvariantRate);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "kfx/linear_filter.hpp"
 
 #include "kfx/error.hpp"
+#include "kfx/step_schedule.hpp"
 #include "kfx/validation.hpp"
 
 namespace kfx {
@@ -71,23 +72,9 @@ LinearFilter::LinearFilter(Eigen::Index n_z, Eigen::Index m, Eigen::Index n_out,
 }
 
 LinearFilterStepPtr LinearFilter::step(int k) const {
-  if (k < 1 || (horizon_ >= 0 && k > horizon_)) {
-    throw Error("k: expected a filter step in 1.." + (horizon_ >= 0 ? std::to_string(horizon_) : std::string("inf")) +
-                ", got " + std::to_string(k));
-  }
-  switch (kind_) {
-    case Kind::kInvariant:
-      return steps_[0];
-    case Kind::kSequence:
-      return steps_[static_cast<size_t>(k - 1)];
-    case Kind::kFunction: {
-      LinearFilterStep s = function_(k);
-      Validate(s, "step " + std::to_string(k) + ": ");
-      return std::make_shared<const LinearFilterStep>(std::move(s));
-    }
-  }
-  KFX_ASSERT(false);
-  return nullptr;
+  return detail::StepAt(
+      k, kind_, horizon_, steps_, function_,
+      [this](const LinearFilterStep& s, const std::string& label) { Validate(s, label); }, "filter step");
 }
 
 Eigen::VectorXd ApplyOutput(const Eigen::MatrixXd& O, const Eigen::VectorXd& z) {

@@ -1,6 +1,7 @@
 #include "kfx/model.hpp"
 
 #include "kfx/error.hpp"
+#include "kfx/step_schedule.hpp"
 #include "kfx/validation.hpp"
 
 namespace kfx {
@@ -96,23 +97,9 @@ void Model::ValidatePrior() {
 }
 
 StepPtr Model::step(int k) const {
-  if (k < 1 || (horizon_ >= 0 && k > horizon_)) {
-    throw Error("k: expected a step in 1.." + (horizon_ >= 0 ? std::to_string(horizon_) : std::string("inf")) +
-                ", got " + std::to_string(k));
-  }
-  switch (kind_) {
-    case Kind::kInvariant:
-      return steps_[0];
-    case Kind::kSequence:
-      return steps_[static_cast<size_t>(k - 1)];
-    case Kind::kFunction: {
-      ModelStep s = function_(k);
-      ValidateStep(s, n_, m_, "step " + std::to_string(k) + ": ");
-      return std::make_shared<const ModelStep>(std::move(s));
-    }
-  }
-  KFX_ASSERT(false);
-  return nullptr;
+  return detail::StepAt(
+      k, kind_, horizon_, steps_, function_,
+      [this](const ModelStep& s, const std::string& label) { ValidateStep(s, n_, m_, label); }, "step");
 }
 
 int Model::ResolveSteps(int steps, const std::string& what) const {

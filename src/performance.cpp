@@ -45,6 +45,16 @@ int ResolveHorizon(const Model& truth, const LinearFilter& filter, int steps) {
   return T;
 }
 
+// Validates options, dimensions and weight of an evaluation; returns the number of steps T.
+template <typename Options>
+int CheckEvaluation(const Model& truth, const LinearFilter& filter, const Options& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw Error("options." + why);
+  CheckCompatible(truth, filter);
+  CheckWeight(options.weight, truth.state_dim(), "options.weight");
+  return ResolveHorizon(truth, filter, options.steps);
+}
+
 double WeightedTrace(const Eigen::MatrixXd& weight, const Eigen::MatrixXd& E) {
   if (weight.size() == 0) return E.trace();
   return weight.cwiseProduct(E).sum();  // tr(W E) for symmetric E
@@ -103,12 +113,8 @@ bool MonteCarloOptions::IsValid(std::string* error) const {
 }
 
 PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter, const PerformanceOptions& options) {
-  std::string why;
-  if (!options.IsValid(&why)) throw Error("options." + why);
-  CheckCompatible(truth, filter);
+  const int T = CheckEvaluation(truth, filter, options);
   const Eigen::Index n = truth.state_dim();
-  CheckWeight(options.weight, n, "options.weight");
-  const int T = ResolveHorizon(truth, filter, options.steps);
 
   PerformanceResult res;
   res.mse.resize(T + 1);
@@ -239,12 +245,8 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
 
 MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
                                        const MonteCarloOptions& options) {
-  std::string why;
-  if (!options.IsValid(&why)) throw Error("options." + why);
-  CheckCompatible(truth, filter);
+  const int T = CheckEvaluation(truth, filter, options);
   const Eigen::Index n = truth.state_dim();
-  CheckWeight(options.weight, n, "options.weight");
-  const int T = ResolveHorizon(truth, filter, options.steps);
   const int R = options.runs;
 
   // Welford accumulators per time step.

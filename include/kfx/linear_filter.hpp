@@ -9,6 +9,8 @@
 #include <memory>
 #include <vector>
 
+#include "kfx/step_schedule.hpp"
+
 #include "kfx/model.hpp"
 
 namespace kfx {
@@ -45,7 +47,7 @@ class LinearFilter {
   const Eigen::MatrixXd& O0() const { return O0_; }
 
  private:
-  enum class Kind { kInvariant, kSequence, kFunction };
+  using Kind = detail::ScheduleKind;
   void Validate(const LinearFilterStep& s, const std::string& label) const;
   Kind kind_;
   Eigen::Index n_z_ = 0, m_ = 0, n_out_ = 0;

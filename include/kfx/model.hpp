@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "kfx/step_schedule.hpp"
+
 namespace kfx {
 
 /// A sequence in time-major layout: row k is the vector at time k (the (T, n) shape of numpy).
@@ -82,7 +84,7 @@ class Model {
   Model WithPrior(Eigen::VectorXd m0, Eigen::MatrixXd P0) const;
 
  private:
-  enum class Kind { kInvariant, kSequence, kFunction };
+  using Kind = detail::ScheduleKind;
   void ValidatePrior();
   Kind kind_;
   Eigen::Index n_ = 0, m_ = 0;
