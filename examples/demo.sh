@@ -14,6 +14,11 @@ section() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
 section "kfx reproduce all $quick  (published numbers beside kfx's; JSON in $out/reproduce.json)"
 "$kfx" reproduce all $quick --json "$out/reproduce.json" --out "$out/figures"
+if /usr/bin/python3 -c "import matplotlib" 2> /dev/null; then
+  /usr/bin/python3 "$here/../python/kfx_figures.py" "$out/figures"
+else
+  echo "(figures: install python3-matplotlib, then python3 python/kfx_figures.py $out/figures)"
+fi
 
 models="$here/models"
 section "simulate -> filter -> smooth: constant-velocity target, 200 steps"

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "kfx/error.hpp"
+#include "reproduce_papers.hpp"
 
 namespace kfx {
 
@@ -29,11 +30,11 @@ const PaperInfo kPapers[] = {
     {"bernstein", "Chandrasekar, Kim, Bernstein: finite-horizon reduced-order estimators (001)",
      "001_1f60d5bfbc0b8ad7.txt", nullptr},
     {"patel-toda", "Patel, Toda: modeling error analysis of stationary filters (002)", "002_3fbfce7a479149cb.txt",
-     nullptr},
+     detail::ReproducePatelToda},
     {"aalto-temporal", "Aalto: convergence of discrete to continuous-time Kalman filter (003)",
      "003_cdbc1acc1716879d.txt", nullptr},
     {"block-diagonal", "Pogorelyuk, Rowley, Kasdin: block-diagonal Kalman filter approximation (004)",
-     "004_e32b16110c2ac44a.txt", nullptr},
+     "004_e32b16110c2ac44a.txt", detail::ReproduceBlockDiagonal},
 };
 
 const PaperInfo* FindPaper(const std::string& id) {

@@ -1,0 +1,109 @@
+// One step (covariance + estimate update) of the coupled-subsystem filters of 004, c = 2, d = 1,
+// r = 20, random time-invariant subsystems:
+//   BM_BlockDiagonalStep/n  the O(n r^2) block-diagonal filter, eqs. (8)-(17), n = 1e3 .. 1e6
+//   BM_BandedStep/n         the banded filter (process noise blocks precomputed, as in a banded EKF)
+//   BM_FullStep/n           the full Kalman filter on the stacked system (structured, dense P)
+// Counter GFLOP (a rate) counts the flops each step needs (formulas below); bench/run.sh prints the
+// per-step times, the ratios (linearity in n, full / block-diagonal at n = 2088) and the GFLOP/s.
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Dense>
+#include <random>
+
+#include "kfx/block_diagonal.hpp"
+
+namespace {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+constexpr Index kC = 2, kD = 1, kR = 20;
+
+kfx::CoupledStep MakeSystem(Index n, std::mt19937_64& gen) {
+  std::normal_distribution<double> N01;
+  kfx::CoupledStep s;
+  s.F.resize(kC, n * kC);
+  s.H.resize(kD, n * kC);
+  s.V.resize(kC, n * kC);
+  s.R.resize(kD, n * kD);
+  s.G.resize(n * kC, kR);
+  for (Index i = 0; i < n; ++i) {
+    s.F.middleCols(i * kC, kC) << 0.95, 0.1 * N01(gen), 0.0, 0.95;
+    s.H.middleCols(i * kC, kC) << 1.0 + 0.1 * N01(gen), 0.5 * N01(gen);
+    s.V.middleCols(i * kC, kC) = 1e-2 * MatrixXd::Identity(kC, kC);
+    s.R.middleCols(i * kD, kD).setConstant(1.0);
+  }
+  for (Index j = 0; j < kR; ++j)
+    for (Index i = 0; i < n * kC; ++i) s.G(i, j) = N01(gen) / std::sqrt(static_cast<double>(kR));
+  s.U = MatrixXd::Identity(kR, kR);
+  return s;
+}
+
+double BlockFlops(double n) {
+  const double c = kC, d = kD, r = kR;
+  // HG twice 4ncdr, Y 2nd^2r, N 2ndr^2, B 2ncdr, W 2ncr^2, P += W W^T 2nc^2r, gain apply 2n(c+d)r,
+  // the per-block kernel about 4c^3 + 6c^2d + 4cd^2 + d^3.
+  return n * (6 * c * d * r + 2 * d * d * r + 2 * d * r * r + 2 * c * r * r + 2 * c * c * r + 2 * (c + d) * r +
+              4 * c * c * c + 6 * c * c * d + 4 * c * d * d + d * d * d);
+}
+double BandedFlops(double n) {
+  const double c = kC, d = kD;
+  return n * (4 * c * c * c + 6 * c * c * d + 4 * c * d * d + d * d * d + 4 * c * d);
+}
+double FullFlops(double n) {
+  const double N = n * kC, m = n * kD;
+  // predict 4 c N^2 + N^2 r, H P 2 d N^2 ... dominated by L^{-1} H P (m^2 N) and P -= W^T W (N^2 m).
+  return 4 * kC * N * N + N * N * kR + 2 * kD * N * N + 2 * m * m * kC + m * m * m / 3 + m * m * N + N * N * m;
+}
+
+template <kfx::CoupledFilterKind Kind>
+void BM_Step(benchmark::State& state) {
+  const Index n = state.range(0);
+  std::mt19937_64 gen(1);
+  const kfx::CoupledStep s = MakeSystem(n, gen);
+  const MatrixXd P0 = MatrixXd::Identity(kC, kC).replicate(1, n);
+  kfx::CoupledFilter filter(Kind, VectorXd::Zero(n * kC), P0);
+  const MatrixXd Qb = kfx::BandedProcessNoise(s);
+  std::normal_distribution<double> N01;
+  VectorXd y(n * kD);
+  for (Index i = 0; i < y.size(); ++i) y(i) = N01(gen);
+  // The banded step with its process noise precomputed, as a banded EKF would (V, G, U fixed).
+  MatrixXd Pb = P0;
+  VectorXd xb = VectorXd::Zero(n * kC);
+  for (auto _ : state) {
+    if (Kind == kfx::CoupledFilterKind::kBanded) {
+      const VectorXd nu = y - kfx::CoupledPredictMeasurement(s, xb);
+      kfx::BandedCovarianceStep st = kfx::BandedCovarianceUpdate(s, Pb, Qb);
+      xb = kfx::CoupledPropagate(s, xb) + kfx::BlockDiagonalApply(st.K, kD, nu);
+      Pb = std::move(st.P_filt);
+      benchmark::DoNotOptimize(xb.data());
+    } else {
+      filter.Step(s, y);
+      benchmark::DoNotOptimize(filter.x().data());
+    }
+  }
+  const double nn = static_cast<double>(n);
+  const double flops = Kind == kfx::CoupledFilterKind::kFull     ? FullFlops(nn)
+                       : Kind == kfx::CoupledFilterKind::kBanded ? BandedFlops(nn)
+                                                                 : BlockFlops(nn);
+  state.counters["n"] = nn;
+  state.counters["GFLOP"] = benchmark::Counter(flops * 1e-9, benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void BM_BlockDiagonalStep(benchmark::State& s) { BM_Step<kfx::CoupledFilterKind::kBlockDiagonal>(s); }
+void BM_BandedStep(benchmark::State& s) { BM_Step<kfx::CoupledFilterKind::kBanded>(s); }
+void BM_FullStep(benchmark::State& s) { BM_Step<kfx::CoupledFilterKind::kFull>(s); }
+
+}  // namespace
+
+BENCHMARK(BM_BlockDiagonalStep)
+    ->Arg(1000)
+    ->Arg(2088)
+    ->Arg(10000)
+    ->Arg(100000)
+    ->Arg(1000000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_BandedStep)->Arg(1000)->Arg(2088)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_FullStep)->Arg(250)->Arg(500)->Arg(1000)->Arg(2088)->Unit(benchmark::kMillisecond)->UseRealTime();

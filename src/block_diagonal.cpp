@@ -1,0 +1,684 @@
+// The coupled-subsystem model and the one-step covariance updates of the block-diagonal, banded and
+// full filters (004 eqs. (3)-(17)). Steady state, Prop. 2.2 and the identical-subsystem reduction are
+// in block_diagonal_analysis.cpp.
+#include <algorithm>
+#include <cmath>
+
+#include "kfx/block_diagonal.hpp"
+#include "kfx/error.hpp"
+#include "kfx/simulation.hpp"
+#include "kfx/validation.hpp"
+
+namespace kfx {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+// Small per-block matrices live on the stack (no allocation per block) up to 8 x 8.
+constexpr int kMaxSmall = 8;
+using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxSmall, kMaxSmall>;
+// Subsystems per chunk: the chunk's r-wide temporaries stay in cache (about 8 nb r doubles).
+constexpr Index kChunk = 256;
+
+std::string Dims(Index a, Index b) { return std::to_string(a) + "x" + std::to_string(b); }
+
+void RequireStepShapes(const CoupledStep& s, const std::string& label) {
+  const Index c = s.F.rows();
+  if (c == 0 || s.F.cols() % c != 0) {
+    throw Error(label + "F: expected c x (n c) packed blocks with c >= 1, got " + Dims(s.F.rows(), s.F.cols()));
+  }
+  const Index n = s.F.cols() / c, d = s.H.rows(), r = s.G.cols();
+  RequireShape(label + "H", s.H, d, n * c);
+  if (d == 0) throw Error(label + "H: expected d >= 1 measurement rows per subsystem, got 0");
+  RequireShape(label + "V", s.V, c, n * c);
+  RequireShape(label + "R", s.R, d, n * d);
+  RequireShape(label + "G", s.G, n * c, r);
+  RequireShape(label + "U", s.U, r, r);
+}
+
+void RequirePackedCovariance(const std::string& name, const MatrixXd& P, Index c, Index n) {
+  RequireShape(name, P, c, n * c);
+}
+
+// Raw access to block i of a packed matrix with `rows` rows and blocks `cols` wide.
+inline Eigen::Map<const MatrixXd> BlockOf(const MatrixXd& m, Index i, Index cols) {
+  return Eigen::Map<const MatrixXd>(m.data() + i * cols * m.rows(), m.rows(), cols);
+}
+inline Eigen::Map<MatrixXd> BlockOf(MatrixXd& m, Index i, Index cols) {
+  return Eigen::Map<MatrixXd>(m.data() + i * cols * m.rows(), m.rows(), cols);
+}
+
+// dst(i a + p, j) = sum_q blocks_i(p, q) src(i b + q, j) for subsystems [i0, i0 + nb): a column
+// sweep (contiguous in both) of blockdiag(blocks) * src. blocks is packed a x (n b). A, B > 0 fix
+// the block shape at compile time (the common small cases), 0 takes it from the arguments.
+template <int A, int B>
+void BlockRowsTimesImpl(const double* bl, Index a_rt, Index b_rt, Index nb, const double* src, Index src_ld,
+                        double* dst, Index dst_ld, Index cols) {
+  const Index a = A > 0 ? A : a_rt, b = B > 0 ? B : b_rt;
+  for (Index j = 0; j < cols; ++j) {
+    const double* s = src + j * src_ld;
+    double* t = dst + j * dst_ld;
+    for (Index i = 0; i < nb; ++i) {
+      const double* m = bl + i * a * b;  // column-major a x b
+      const double* si = s + i * b;
+      double* ti = t + i * a;
+      for (Index p = 0; p < a; ++p) {
+        double acc = 0.0;
+        for (Index q = 0; q < b; ++q) acc += m[q * a + p] * si[q];
+        ti[p] = acc;
+      }
+    }
+  }
+}
+
+void BlockRowsTimes(const MatrixXd& blocks, Index b, Index i0, Index nb, const double* src, Index src_ld, double* dst,
+                    Index dst_ld, Index cols) {
+  const Index a = blocks.rows();
+  const double* bl = blocks.data() + i0 * a * b;
+  if (a == 1 && b == 1) return BlockRowsTimesImpl<1, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+  if (a == 1 && b == 2) return BlockRowsTimesImpl<1, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+  if (a == 2 && b == 1) return BlockRowsTimesImpl<2, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+  if (a == 2 && b == 2) return BlockRowsTimesImpl<2, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+  BlockRowsTimesImpl<0, 0>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+}
+
+// The per-subsystem Kalman step shared by the block-diagonal filter (Q = V: eqs. (9), (14), (15))
+// and the banded filter (Q = D{V + G U G^T}): L = F P F^T + Q, M = H L H^T + R,
+// J = L H^T M^{-1} (the banded gain), P_out = L - J H L, and M^{-1} when asked for. MatC, MatD,
+// MatDC are c x c, d x d, d x c types: fixed-size for the common shapes, stack-allocated dynamic
+// for c, d <= 8, heap-allocated beyond.
+template <typename MatC, typename MatD, typename MatDC>
+void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Q, MatrixXd* Minv, MatrixXd& J,
+                          MatrixXd& P_out) {
+  const Index n = s.n(), c = s.c(), d = s.d();
+  for (Index i = 0; i < n; ++i) {
+    const MatC F = BlockOf(s.F, i, c);
+    const MatDC H = BlockOf(s.H, i, c);
+    MatC L = F * MatC(BlockOf(Pp, i, c)) * F.transpose() + MatC(BlockOf(Q, i, c));
+    L = (0.5 * (L + L.transpose())).eval();
+    const MatDC HL = H * L;
+    const MatD M = HL * H.transpose() + MatD(BlockOf(s.R, i, d));
+    const Eigen::LLT<MatD> llt(M);
+    if (llt.info() != Eigen::Success) {
+      throw NumericalError("M (block " + std::to_string(i) + "): H L H^T + R is not positive definite");
+    }
+    const MatDC Jt = llt.solve(HL);  // M^{-1} H L = J^T
+    BlockOf(J, i, d) = Jt.transpose();
+    if (Minv) {
+      const MatD Mi = llt.solve(MatD::Identity(d, d));
+      BlockOf(*Minv, i, d) = 0.5 * (Mi + Mi.transpose());
+    }
+    const MatC A = L - Jt.transpose() * HL;
+    BlockOf(P_out, i, c) = 0.5 * (A + A.transpose());
+  }
+}
+
+void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Q, MatrixXd* Minv, MatrixXd& J,
+                          MatrixXd& P_out) {
+  using Eigen::Matrix;
+  const Index c = s.c(), d = s.d();
+  if (c == 1 && d == 1) {
+    SubsystemKalmanSteps<Matrix<double, 1, 1>, Matrix<double, 1, 1>, Matrix<double, 1, 1>>(s, Pp, Q, Minv, J, P_out);
+  } else if (c == 2 && d == 1) {
+    SubsystemKalmanSteps<Eigen::Matrix2d, Matrix<double, 1, 1>, Matrix<double, 1, 2>>(s, Pp, Q, Minv, J, P_out);
+  } else if (c == 2 && d == 2) {
+    SubsystemKalmanSteps<Eigen::Matrix2d, Eigen::Matrix2d, Eigen::Matrix2d>(s, Pp, Q, Minv, J, P_out);
+  } else if (c <= kMaxSmall && d <= kMaxSmall) {
+    SubsystemKalmanSteps<Small, Small, Small>(s, Pp, Q, Minv, J, P_out);
+  } else {
+    SubsystemKalmanSteps<MatrixXd, MatrixXd, MatrixXd>(s, Pp, Q, Minv, J, P_out);
+  }
+}
+
+}  // namespace
+
+// ---- Model -----------------------------------------------------------------------------------------
+
+CoupledStep MakeIdenticalCoupledStep(Index n, const MatrixXd& F, const MatrixXd& H, const MatrixXd& V,
+                                     const MatrixXd& R, const MatrixXd& g, const MatrixXd& U) {
+  if (n < 1) throw Error("n: expected at least 1 subsystem, got " + std::to_string(n));
+  RequireSquare("F", F);
+  const Index c = F.rows();
+  RequireShape("H", H, -1, c);
+  RequireShape("V", V, c, c);
+  RequireShape("R", R, H.rows(), H.rows());
+  RequireShape("g", g, c, -1);
+  RequireShape("U", U, g.cols(), g.cols());
+  CoupledStep s;
+  s.F = F.replicate(1, n);
+  s.H = H.replicate(1, n);
+  s.V = V.replicate(1, n);
+  s.R = R.replicate(1, n);
+  s.G = g.replicate(n, 1);
+  s.U = U;
+  return s;
+}
+
+void ValidateCoupledStep(const CoupledStep& s, Index n, Index c, Index d, Index r, const std::string& label) {
+  RequireShape(label + "F", s.F, c, n * c);
+  RequireShape(label + "H", s.H, d, n * c);
+  RequireShape(label + "V", s.V, c, n * c);
+  RequireShape(label + "R", s.R, d, n * d);
+  RequireShape(label + "G", s.G, n * c, r);
+  RequireShape(label + "U", s.U, r, r);
+  RequireFinite(label + "F", s.F);
+  RequireFinite(label + "H", s.H);
+  RequireFinite(label + "G", s.G);
+  RequirePositiveSemidefinite(label + "U", s.U);
+  for (Index i = 0; i < n; ++i) {
+    const std::string b = " (block " + std::to_string(i) + ")";
+    RequirePositiveSemidefinite(label + "V" + b, s.V.middleCols(i * c, c));
+    RequirePositiveDefinite(label + "R" + b, s.R.middleCols(i * d, d));
+  }
+}
+
+CoupledSystem::CoupledSystem(CoupledStep step, VectorXd m0, MatrixXd P0_blocks)
+    : kind_(detail::ScheduleKind::kInvariant), m0_(std::move(m0)), P0_(std::move(P0_blocks)) {
+  RequireStepShapes(step, "");
+  n_ = step.n(), c_ = step.c(), d_ = step.d(), r_ = step.r();
+  ValidateCoupledStep(step, n_, c_, d_, r_);
+  steps_.push_back(std::make_shared<const CoupledStep>(std::move(step)));
+  ValidatePrior();
+}
+
+CoupledSystem::CoupledSystem(std::vector<CoupledStep> steps, VectorXd m0, MatrixXd P0_blocks)
+    : kind_(detail::ScheduleKind::kSequence), m0_(std::move(m0)), P0_(std::move(P0_blocks)) {
+  if (steps.empty()) throw Error("steps: expected at least one step");
+  RequireStepShapes(steps[0], "step 1: ");
+  n_ = steps[0].n(), c_ = steps[0].c(), d_ = steps[0].d(), r_ = steps[0].r();
+  for (size_t k = 0; k < steps.size(); ++k) {
+    ValidateCoupledStep(steps[k], n_, c_, d_, r_, "step " + std::to_string(k + 1) + ": ");
+    steps_.push_back(std::make_shared<const CoupledStep>(std::move(steps[k])));
+  }
+  horizon_ = static_cast<int>(steps_.size());
+  ValidatePrior();
+}
+
+CoupledSystem::CoupledSystem(Index n, Index c, Index d, Index r, StepFunction function, VectorXd m0, MatrixXd P0_blocks,
+                             int horizon)
+    : kind_(detail::ScheduleKind::kFunction),
+      n_(n),
+      c_(c),
+      d_(d),
+      r_(r),
+      horizon_(horizon),
+      function_(std::move(function)),
+      m0_(std::move(m0)),
+      P0_(std::move(P0_blocks)) {
+  if (n < 1 || c < 1 || d < 1 || r < 0) {
+    throw Error("n, c, d, r: expected n, c, d >= 1 and r >= 0, got " + std::to_string(n) + ", " + std::to_string(c) +
+                ", " + std::to_string(d) + ", " + std::to_string(r));
+  }
+  if (!function_) throw Error("function: expected a step callback");
+  ValidatePrior();
+}
+
+void CoupledSystem::ValidatePrior() const {
+  RequireVector("m0", m0_, n_ * c_);
+  RequireFinite("m0", m0_);
+  RequirePackedCovariance("P0", P0_, c_, n_);
+  for (Index i = 0; i < n_; ++i) {
+    RequirePositiveSemidefinite("P0 (block " + std::to_string(i) + ")", P0_.middleCols(i * c_, c_));
+  }
+}
+
+std::shared_ptr<const CoupledStep> CoupledSystem::step(int k) const {
+  return detail::StepAt<CoupledStep>(
+      k, kind_, horizon_, steps_, function_,
+      [this](const CoupledStep& s, const std::string& label) { ValidateCoupledStep(s, n_, c_, d_, r_, label); },
+      "step");
+}
+
+int CoupledSystem::ResolveSteps(int steps) const {
+  if (steps < 0) {
+    if (horizon_ < 0) throw Error("steps: expected a number of steps (the system has no horizon)");
+    return horizon_;
+  }
+  if (horizon_ >= 0 && steps > horizon_) {
+    throw Error("steps: expected at most " + std::to_string(horizon_) + " steps (the system's horizon), got " +
+                std::to_string(steps));
+  }
+  return steps;
+}
+
+// ---- Packed helpers --------------------------------------------------------------------------------
+
+MatrixXd BlockDiagonalToDense(const MatrixXd& blocks, Index block_cols) {
+  if (block_cols < 1 || blocks.cols() % block_cols != 0) {
+    throw Error("blocks: expected a x (n b) packed blocks with b = " + std::to_string(block_cols) + ", got " +
+                Dims(blocks.rows(), blocks.cols()));
+  }
+  const Index a = blocks.rows(), n = blocks.cols() / block_cols;
+  MatrixXd dense = MatrixXd::Zero(n * a, n * block_cols);
+  for (Index i = 0; i < n; ++i) {
+    dense.block(i * a, i * block_cols, a, block_cols) = blocks.middleCols(i * block_cols, block_cols);
+  }
+  return dense;
+}
+
+MatrixXd DiagonalBlocks(const MatrixXd& M, Index a) {
+  if (a < 1 || M.rows() != M.cols() || M.rows() % a != 0) {
+    throw Error("M: expected a square matrix of size a multiple of " + std::to_string(a) + ", got " +
+                Dims(M.rows(), M.cols()));
+  }
+  const Index n = M.rows() / a;
+  MatrixXd blocks(a, n * a);
+  for (Index i = 0; i < n; ++i) blocks.middleCols(i * a, a) = M.block(i * a, i * a, a, a);
+  return blocks;
+}
+
+VectorXd BlockDiagonalApply(const MatrixXd& blocks, Index block_cols, const VectorXd& x) {
+  if (block_cols < 1 || blocks.cols() % block_cols != 0) {
+    throw Error("blocks: expected packed blocks " + std::to_string(block_cols) + " wide, got " +
+                Dims(blocks.rows(), blocks.cols()));
+  }
+  RequireVector("x", x, blocks.cols());
+  const Index n = blocks.cols() / block_cols;
+  VectorXd y(n * blocks.rows());
+  BlockRowsTimes(blocks, block_cols, 0, n, x.data(), x.size(), y.data(), y.size(), 1);
+  return y;
+}
+
+ModelStep ToDenseStep(const CoupledStep& s) {
+  RequireStepShapes(s, "");
+  const Index c = s.c();
+  MatrixXd Q = BlockDiagonalToDense(s.V, c);
+  if (s.r() > 0) Q.noalias() += s.G * s.U * s.G.transpose();
+  Symmetrize(Q);
+  return MakeStep(BlockDiagonalToDense(s.F, c), BlockDiagonalToDense(s.H, c), std::move(Q),
+                  BlockDiagonalToDense(s.R, s.d()));
+}
+
+Model ToDenseModel(const CoupledSystem& system) {
+  MatrixXd P0 = BlockDiagonalToDense(system.P0_blocks(), system.c());
+  if (system.time_invariant()) return Model(ToDenseStep(*system.step(1)), system.m0(), std::move(P0));
+  return Model(
+      system.state_dim(), system.meas_dim(), [system](int k) { return ToDenseStep(*system.step(k)); }, system.m0(),
+      std::move(P0), system.horizon());
+}
+
+// ---- The block-diagonal step, eqs. (8)-(17) --------------------------------------------------------
+
+VectorXd BlockDiagonalGain::Apply(const VectorXd& innovation) const {
+  const Index c = J.rows(), nd = Y.rows();
+  RequireVector("innovation", innovation, nd);
+  VectorXd out(E.rows());
+  const Index n = E.rows() / std::max<Index>(c, 1);
+  BlockRowsTimes(J, n > 0 ? nd / n : 0, 0, n, innovation.data(), nd, out.data(), out.size(), 1);
+  if (E.cols() > 0) out.noalias() -= E * (C1 * (Y.transpose() * innovation));
+  return out;
+}
+
+VectorXd BlockDiagonalGain::CouplingMean(const VectorXd& innovation) const {
+  RequireVector("innovation", innovation, Y.rows());
+  return C1 * (Y.transpose() * innovation);
+}
+
+MatrixXd BlockDiagonalGain::ToDense() const {
+  const Index c = J.rows(), n = E.rows() / std::max<Index>(c, 1);
+  const Index d = n > 0 ? Y.rows() / n : 0;
+  MatrixXd K = BlockDiagonalToDense(J, d);
+  if (E.cols() > 0) K.noalias() -= E * C1 * Y.transpose();
+  return K;
+}
+
+BlockDiagonalCovarianceStep BlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp) {
+  BlockDiagonalCovarianceStep out;
+  BlockDiagonalCovarianceUpdate(s, Pp, &out);
+  return out;
+}
+
+void BlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep* result) {
+  KFX_ASSERT(result != nullptr);
+  if (&Pp == &result->P_filt) throw Error("P_prev: must not alias the output's P_filt");
+  RequireStepShapes(s, "");
+  const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
+  RequirePackedCovariance("P_prev", Pp, c, n);
+  BlockDiagonalCovarianceStep& out = *result;  // reuses the caller's storage when the sizes agree
+  out.P_filt.resize(c, n * c);
+  BlockDiagonalGain& g = out.gain;
+  g.J.resize(c, n * d);
+  g.Y.resize(n * d, r);
+  g.E.resize(n * c, r);
+  MatrixXd Minv(d, n * d);
+  SubsystemKalmanSteps(s, Pp, s.V, &Minv, g.J, out.P_filt);
+  if (r == 0) {
+    g.C1.resize(0, 0);
+    return;
+  }
+  // Pass 1, per chunk: HG = blockdiag(H) G, Y = blockdiag(M^{-1}) HG, N += HG^T Y  (eq. (16)).
+  MatrixXd HG(kChunk * d, r);
+  MatrixXd N = MatrixXd::Zero(r, r);
+  const Index ldG = s.G.rows(), ldY = g.Y.rows();
+  for (Index i0 = 0; i0 < n; i0 += kChunk) {
+    const Index nb = std::min(kChunk, n - i0);
+    BlockRowsTimes(s.H, c, i0, nb, s.G.data() + i0 * c, ldG, HG.data(), HG.rows(), r);
+    BlockRowsTimes(Minv, d, i0, nb, HG.data(), HG.rows(), g.Y.data() + i0 * d, ldY, r);
+    N.noalias() += HG.topRows(nb * d).transpose() * g.Y.middleRows(i0 * d, nb * d);
+  }
+  N = 0.5 * (N + N.transpose()).eval();
+  // C_1 = (U^{-1} + N)^{-1} (eq. (11)) without inverting U (U may be singular, even 0):
+  // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = Fc Fc^T, Fc = S L^{-T}, (I + S^T N S) = L L^T.
+  const MatrixXd S = PsdFactor(s.U);
+  MatrixXd T = MatrixXd::Identity(S.cols(), S.cols());
+  T.noalias() += S.transpose() * N * S;
+  Eigen::LLT<MatrixXd> tl(T);
+  if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
+  const MatrixXd Fc = tl.matrixL().solve(S.transpose()).transpose();  // r x k
+  g.C1 = Fc * Fc.transpose();
+  // Pass 2, per chunk: E = B - G = blockdiag(J) HG - G (eq. (10)); P_i += E_i C_1 E_i^T (eq. (8) with
+  // C_2 = C_1, C_3 = -C_1).
+  const Index k = Fc.cols(), ldE = g.E.rows();
+  MatrixXd W(kChunk * c, k);
+  for (Index i0 = 0; i0 < n; i0 += kChunk) {
+    const Index nb = std::min(kChunk, n - i0);
+    BlockRowsTimes(s.H, c, i0, nb, s.G.data() + i0 * c, ldG, HG.data(), HG.rows(), r);
+    double* E0 = g.E.data() + i0 * c;
+    BlockRowsTimes(g.J, d, i0, nb, HG.data(), HG.rows(), E0, ldE, r);
+    auto Ec = g.E.middleRows(i0 * c, nb * c);
+    Ec -= s.G.middleRows(i0 * c, nb * c);
+    W.topRows(nb * c).noalias() = Ec * Fc;
+    for (Index j = 0; j < k; ++j) {
+      const double* w = W.data() + j * W.rows();
+      for (Index i = 0; i < nb; ++i) {
+        double* P = out.P_filt.data() + (i0 + i) * c * c;
+        const double* wi = w + i * c;
+        for (Index b = 0; b < c; ++b)
+          for (Index a = 0; a < c; ++a) P[b * c + a] += wi[a] * wi[b];
+      }
+    }
+  }
+}
+
+DenseGainCovarianceStep NaiveBlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp) {
+  RequireStepShapes(s, "");
+  const Index c = s.c();
+  RequirePackedCovariance("P_prev", Pp, c, s.n());
+  const ModelStep dense = ToDenseStep(s);
+  // (3) P~_{k|k-1} = F P~ F^T + V + G U G^T
+  MatrixXd P = dense.A * BlockDiagonalToDense(Pp, c) * dense.A.transpose() + dense.Q;
+  Symmetrize(P);
+  // (4) S = H P H^T + R, (5) K = P H^T S^{-1}
+  const MatrixXd PHt = P * dense.C.transpose();
+  const MatrixXd S = dense.C * PHt + dense.R;
+  Eigen::LLT<MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) throw NumericalError("S: H P H^T + R is not positive definite");
+  DenseGainCovarianceStep out;
+  out.K = llt.solve(PHt.transpose()).transpose();
+  // (6) P~_{k|k} = D{(I - K H) P~_{k|k-1}}
+  MatrixXd Pf = P - out.K * dense.C * P;
+  Symmetrize(Pf);
+  out.P_filt = DiagonalBlocks(Pf, c);
+  return out;
+}
+
+// ---- The banded step ---------------------------------------------------------------------------------
+
+MatrixXd BandedProcessNoise(const CoupledStep& s) {
+  RequireStepShapes(s, "");
+  const Index n = s.n(), c = s.c(), r = s.r();
+  MatrixXd Q = s.V;
+  if (r == 0) return Q;
+  const MatrixXd GS = s.G * PsdFactor(s.U);  // (n c) x k
+  for (Index i = 0; i < n; ++i) {
+    BlockOf(Q, i, c).noalias() += GS.middleRows(i * c, c) * GS.middleRows(i * c, c).transpose();
+  }
+  return Q;
+}
+
+BandedCovarianceStep BandedCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp) {
+  return BandedCovarianceUpdate(s, Pp, BandedProcessNoise(s));
+}
+
+BandedCovarianceStep BandedCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Qb) {
+  RequireStepShapes(s, "");
+  const Index n = s.n(), c = s.c(), d = s.d();
+  RequirePackedCovariance("P_prev", Pp, c, n);
+  RequirePackedCovariance("Q_blocks", Qb, c, n);
+  BandedCovarianceStep out;
+  out.P_filt.resize(c, n * c);
+  out.K.resize(c, n * d);
+  SubsystemKalmanSteps(s, Pp, Qb, nullptr, out.K, out.P_filt);
+  return out;
+}
+
+// ---- The full Kalman filter on the stacked system ----------------------------------------------------
+
+VectorXd FullCovarianceStep::Apply(const VectorXd& innovation) const {
+  RequireVector("innovation", innovation, HP.rows());
+  return HP.transpose() * S.solve(innovation);
+}
+
+MatrixXd FullCovarianceStep::ToDense() const { return S.solve(HP).transpose(); }
+
+FullCovarianceStep FullCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pprev) {
+  RequireStepShapes(s, "");
+  const Index n = s.n(), c = s.c(), d = s.d(), N = n * c;
+  RequireShape("P_prev", Pprev, N, N);
+  FullCovarianceStep out;
+  // Predict: P = F P F^T + blockdiag(V) + G U G^T with block-diagonal F (left, then right).
+  MatrixXd P(N, N);
+  for (Index i = 0; i < n; ++i) P.middleRows(i * c, c).noalias() = BlockOf(s.F, i, c) * Pprev.middleRows(i * c, c);
+  MatrixXd P2(N, N);
+  for (Index i = 0; i < n; ++i)
+    P2.middleCols(i * c, c).noalias() = P.middleCols(i * c, c) * BlockOf(s.F, i, c).transpose();
+  P = std::move(P2);
+  for (Index i = 0; i < n; ++i) P.block(i * c, i * c, c, c) += BlockOf(s.V, i, c);
+  if (s.r() > 0) {
+    const MatrixXd GS = s.G * PsdFactor(s.U);
+    P.selfadjointView<Eigen::Lower>().rankUpdate(GS);
+  }
+  P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+  // Update: HP = blockdiag(H) P, S = HP H^T + blockdiag(R), P_filt = P - HP^T S^{-1} HP.
+  out.HP.resize(n * d, N);
+  for (Index i = 0; i < n; ++i) out.HP.middleRows(i * d, d).noalias() = BlockOf(s.H, i, c) * P.middleRows(i * c, c);
+  MatrixXd S(n * d, n * d);
+  for (Index j = 0; j < n; ++j)
+    S.middleCols(j * d, d).noalias() = out.HP.middleCols(j * c, c) * BlockOf(s.H, j, c).transpose();
+  for (Index i = 0; i < n; ++i) S.block(i * d, i * d, d, d) += BlockOf(s.R, i, d);
+  S = 0.5 * (S + S.transpose()).eval();
+  out.S.compute(S);
+  if (out.S.info() != Eigen::Success) throw NumericalError("S: H P H^T + R is not positive definite");
+  MatrixXd W = out.S.matrixL().solve(out.HP);  // L^{-1} H P
+  P.selfadjointView<Eigen::Lower>().rankUpdate(W.transpose(), -1.0);
+  P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+  out.P_filt = std::move(P);
+  return out;
+}
+
+// ---- Online part -----------------------------------------------------------------------------------
+
+VectorXd CoupledPropagate(const CoupledStep& s, const VectorXd& x_prev) {
+  return BlockDiagonalApply(s.F, s.c(), x_prev);
+}
+
+VectorXd CoupledPredictMeasurement(const CoupledStep& s, const VectorXd& x_prev) {
+  return BlockDiagonalApply(s.H, s.c(), CoupledPropagate(s, x_prev));
+}
+
+const char* ToString(CoupledFilterKind kind) {
+  switch (kind) {
+    case CoupledFilterKind::kBlockDiagonal:
+      return "block-diagonal";
+    case CoupledFilterKind::kBlockDiagonalNaive:
+      return "block-diagonal (naive)";
+    case CoupledFilterKind::kBanded:
+      return "banded";
+    case CoupledFilterKind::kFull:
+      return "full";
+  }
+  return "?";
+}
+
+CoupledFilter::CoupledFilter(CoupledFilterKind kind, VectorXd x0, const MatrixXd& P0_blocks)
+    : kind_(kind), c_(P0_blocks.rows()), x_(std::move(x0)) {
+  if (c_ < 1 || P0_blocks.cols() % c_ != 0) {
+    throw Error("P0: expected c x (n c) packed blocks, got " + Dims(P0_blocks.rows(), P0_blocks.cols()));
+  }
+  RequireVector("x0", x_, P0_blocks.cols());
+  RequireFinite("x0", x_);
+  RequireFinite("P0", P0_blocks);
+  P_ = kind == CoupledFilterKind::kFull ? BlockDiagonalToDense(P0_blocks, c_) : P0_blocks;
+}
+
+void CoupledFilter::Step(const CoupledStep& s, const VectorXd& y) {
+  RequireVector("y", y, s.n() * s.d());
+  RequireFinite("y", y);
+  RequireVector("x", x_, s.n() * s.c());
+  StepWithInnovation(s, y - CoupledPredictMeasurement(s, x_));
+}
+
+void CoupledFilter::StepWithInnovation(const CoupledStep& s, const VectorXd& nu) {
+  RequireStepShapes(s, "");
+  if (s.c() != c_ || s.n() * s.c() != x_.size()) {
+    throw Error("step: expected " + std::to_string(x_.size() / c_) + " subsystems of " + std::to_string(c_) +
+                " states, got " + std::to_string(s.n()) + " of " + std::to_string(s.c()));
+  }
+  RequireVector("innovation", nu, s.n() * s.d());
+  VectorXd x = CoupledPropagate(s, x_);
+  switch (kind_) {
+    case CoupledFilterKind::kBlockDiagonal: {
+      BlockDiagonalCovarianceUpdate(s, P_, &work_);  // the previous step's buffers are reused
+      x += work_.gain.Apply(nu);
+      mu_u_ = work_.gain.CouplingMean(nu);
+      sigma_u_ = work_.gain.C1;
+      P_.swap(work_.P_filt);
+      break;
+    }
+    case CoupledFilterKind::kBlockDiagonalNaive: {
+      DenseGainCovarianceStep st = NaiveBlockDiagonalCovarianceUpdate(s, P_);
+      x += st.K * nu;
+      // The posterior of u from the same quantities as the fast form (eq. after (17)).
+      const BlockDiagonalCovarianceStep fast = BlockDiagonalCovarianceUpdate(s, P_);
+      mu_u_ = fast.gain.CouplingMean(nu);
+      sigma_u_ = fast.gain.C1;
+      P_ = std::move(st.P_filt);
+      break;
+    }
+    case CoupledFilterKind::kBanded: {
+      BandedCovarianceStep st = BandedCovarianceUpdate(s, P_);
+      x += BlockDiagonalApply(st.K, s.d(), nu);
+      P_ = std::move(st.P_filt);
+      break;
+    }
+    case CoupledFilterKind::kFull: {
+      FullCovarianceStep st = FullCovarianceUpdate(s, P_);
+      x += st.Apply(nu);
+      P_ = std::move(st.P_filt);
+      break;
+    }
+  }
+  x_ = std::move(x);
+}
+
+CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind, const TimeSeries& y,
+                            const ProgressCallback& progress) {
+  if (y.cols() != system.meas_dim()) {
+    throw Error("y: expected " + std::to_string(system.meas_dim()) + " columns (n d), got " + std::to_string(y.cols()));
+  }
+  const int T = system.ResolveSteps(static_cast<int>(y.rows()));
+  CoupledFilter filter(kind, system.m0(), system.P0_blocks());
+  CoupledRun run;
+  run.x_filt.resize(T + 1, system.state_dim());
+  run.x_filt.row(0) = system.m0().transpose();
+  const bool coupling = kind == CoupledFilterKind::kBlockDiagonal || kind == CoupledFilterKind::kBlockDiagonalNaive;
+  if (coupling) run.coupling.resize(T, system.r());
+  run.trace.resize(T + 1);
+  auto trace = [&](const MatrixXd& P) {
+    if (kind == CoupledFilterKind::kFull) return P.trace();
+    double t = 0;
+    for (Index i = 0; i < P.cols() / system.c(); ++i) t += P.middleCols(i * system.c(), system.c()).trace();
+    return t;
+  };
+  run.trace(0) = trace(filter.P());
+  for (int k = 1; k <= T; ++k) {
+    filter.Step(*system.step(k), y.row(k - 1).transpose());
+    run.x_filt.row(k) = filter.x().transpose();
+    if (coupling) run.coupling.row(k - 1) = filter.coupling_mean().transpose();
+    run.trace(k) = trace(filter.P());
+    if (progress) progress(k, T);
+  }
+  return run;
+}
+
+LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind, int steps) {
+  const int T = system.ResolveSteps(steps);
+  std::vector<LinearFilterStep> out;
+  out.reserve(static_cast<size_t>(T));
+  MatrixXd P =
+      kind == CoupledFilterKind::kFull ? BlockDiagonalToDense(system.P0_blocks(), system.c()) : system.P0_blocks();
+  for (int k = 1; k <= T; ++k) {
+    const auto s = system.step(k);
+    MatrixXd K;
+    switch (kind) {
+      case CoupledFilterKind::kBlockDiagonal: {
+        auto st = BlockDiagonalCovarianceUpdate(*s, P);
+        K = st.gain.ToDense();
+        P = std::move(st.P_filt);
+        break;
+      }
+      case CoupledFilterKind::kBlockDiagonalNaive: {
+        auto st = NaiveBlockDiagonalCovarianceUpdate(*s, P);
+        K = std::move(st.K);
+        P = std::move(st.P_filt);
+        break;
+      }
+      case CoupledFilterKind::kBanded: {
+        auto st = BandedCovarianceUpdate(*s, P);
+        K = BlockDiagonalToDense(st.K, s->d());
+        P = std::move(st.P_filt);
+        break;
+      }
+      case CoupledFilterKind::kFull: {
+        auto st = FullCovarianceUpdate(*s, P);
+        K = st.ToDense();
+        P = std::move(st.P_filt);
+        break;
+      }
+    }
+    const MatrixXd F = BlockDiagonalToDense(s->F, s->c()), H = BlockDiagonalToDense(s->H, s->c());
+    LinearFilterStep fs;
+    fs.Phi = F - K * (H * F);
+    fs.K = std::move(K);
+    out.push_back(std::move(fs));
+  }
+  return LinearFilter(std::move(out), system.m0());
+}
+
+CoupledTrajectory SimulateCoupled(const CoupledSystem& system, int steps, std::uint64_t seed) {
+  const int T = system.ResolveSteps(steps);
+  const Index n = system.n(), c = system.c(), d = system.d(), r = system.r();
+  Rng rng(seed);
+  CoupledTrajectory tr;
+  tr.x.resize(T + 1, n * c);
+  tr.y.resize(T, n * d);
+  tr.u.resize(T, r);
+  VectorXd x(n * c);
+  for (Index i = 0; i < n; ++i) {
+    x.segment(i * c, c) =
+        system.m0().segment(i * c, c) + PsdFactor(system.P0_blocks().middleCols(i * c, c)) * rng.Normal(c);
+  }
+  tr.x.row(0) = x.transpose();
+  for (int k = 1; k <= T; ++k) {
+    const auto s = system.step(k);
+    const VectorXd u = PsdFactor(s->U) * rng.Normal(r);
+    VectorXd xn = CoupledPropagate(*s, x);
+    if (r > 0) xn.noalias() += s->G * u;
+    VectorXd yk(n * d);
+    for (Index i = 0; i < n; ++i) {
+      xn.segment(i * c, c) += PsdFactor(BlockOf(s->V, i, c)) * rng.Normal(c);
+    }
+    yk = BlockDiagonalApply(s->H, c, xn);
+    for (Index i = 0; i < n; ++i) yk.segment(i * d, d) += PsdFactor(BlockOf(s->R, i, d)) * rng.Normal(d);
+    x = std::move(xn);
+    tr.x.row(k) = x.transpose();
+    tr.y.row(k - 1) = yk.transpose();
+    tr.u.row(k - 1) = u.transpose();
+  }
+  return tr;
+}
+
+}  // namespace kfx

@@ -1,0 +1,11 @@
+#pragma once
+// Each paper's reproduction (`kfx reproduce <id>`), one src/reproduce_<paper>.cpp per paper, referenced
+// from the table in src/reproduce.cpp.
+#include "kfx/reproduce.hpp"
+
+namespace kfx::detail {
+
+PaperReport ReproducePatelToda(const ReproduceOptions& options);      // src/reproduce_patel_toda.cpp
+PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options);  // src/reproduce_block_diagonal.cpp
+
+}  // namespace kfx::detail

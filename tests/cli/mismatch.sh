@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# kfx mismatch: the robustness report on the paper-002 example (plant and noise error ranges), its
+# JSON, bad ranges files (exit 2, one line naming the field), and `kfx reproduce patel-toda`.
+# Usage: mismatch.sh KFX SOURCE_DIR
+set -u
+kfx=$1
+src=$2
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+model="$src/examples/models/patel_toda.json"
+check() {  # check DESCRIPTION COMMAND...
+  local what=$1
+  shift
+  if "$@"; then echo "ok: $what"; else echo "FAIL: $what"; fail=1; fi
+}
+
+"$kfx" mismatch "$model" --ranges "$src/examples/ranges/patel_toda_ranges.json" --json "$tmp/plant.json" > "$tmp/plant.txt"
+check "plant ranges: exit 0" test $? -eq 0
+check "plant ranges: Theorem 5 and 6 bounds" grep -q "pi5: tr P" "$tmp/plant.txt"
+check "plant ranges: Theorem 6" grep -q "pi6: tr P_F" "$tmp/plant.txt"
+check "plant ranges: no Theorem 3" bash -c "! grep -q 'pi3:' '$tmp/plant.txt'"
+check "plant ranges: worst case located" grep -q "max tr P = .* at dA(1,1)" "$tmp/plant.txt"
+check "plant ranges: JSON" grep -q '"least_upper"' "$tmp/plant.json"
+
+"$kfx" mismatch "$model" --ranges "$src/examples/ranges/patel_toda_noise_ranges.json" > "$tmp/noise.txt"
+check "noise ranges: exit 0" test $? -eq 0
+check "noise ranges: Theorems 3 and 4" grep -q "pi4: tr P_F" "$tmp/noise.txt"
+
+expect_error() {  # expect_error PATTERN -- ARGS...
+  local pattern=$1
+  shift 2
+  "$kfx" "$@" > "$tmp/out" 2> "$tmp/err"
+  local rc=$?
+  if [[ $rc -ne 2 || $(wc -l < "$tmp/err") -ne 1 ]] || ! grep -q -- "$pattern" "$tmp/err"; then
+    echo "FAIL: kfx $* -> rc $rc, expected rc 2 and one line matching '$pattern':"
+    cat "$tmp/err"
+    fail=1
+  else
+    echo "ok: kfx $*: $(cat "$tmp/err")"
+  fi
+}
+expect_error "ranges" -- mismatch "$model"
+printf '{"A": [[-0.1, 0], [0, 0]]}\n' > "$tmp/negative.json"
+expect_error "ranges.A" -- mismatch "$model" --ranges "$tmp/negative.json"
+printf '{"R": [[0.5, 0]]}\n' > "$tmp/shape.json"
+expect_error "ranges.R" -- mismatch "$model" --ranges "$tmp/shape.json"
+printf '{"format": "kfx-error-ranges"}\n' > "$tmp/empty.json"
+expect_error "empty.json" -- mismatch "$model" --ranges "$tmp/empty.json"
+expect_error "missing.json" -- mismatch "$model" --ranges "$tmp/missing.json"
+
+"$kfx" reproduce patel-toda --json "$tmp/r.json" > "$tmp/r.txt"
+check "reproduce patel-toda: exit 0" test $? -eq 0
+for key in thm3.case1.pi3 thm3.case1.least_upper thm3.case2.pi3 thm3.case2.least_upper thm4.case1.pi4 \
+  thm4.case1.greatest_lower thm4.case2.pi4 thm4.case2.greatest_lower thm5.pi5 thm5.least_upper thm6.pi6 \
+  thm6.greatest_lower; do
+  check "reproduce row $key" grep -q "^$key " "$tmp/r.txt"
+done
+check "reproduce JSON has twelve items" test "$(grep -c '"key"' "$tmp/r.json")" -eq 12
+exit $fail
