@@ -7,7 +7,7 @@ build=${1:?usage: bench/run.sh BUILD_DIR}
 out="$build/bench-results"
 mkdir -p "$out"
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
-for b in bench_dgemm bench_kalman bench_riccati; do
+for b in bench_dgemm bench_kalman bench_riccati bench_block_diagonal; do
   echo "running $b ..." >&2
   "$build/bench/$b" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
     --benchmark_out="$out/$b.json" --benchmark_out_format=json > /dev/null
@@ -38,4 +38,20 @@ for n in sorted(rows):
     if not d or not s: continue
     print(f"| {n} | {d['real_time']:.3g} {d['time_unit']} | {d.get('steps', float('nan')):.0f} | {d['residual']:.1e} | "
           f"{s['real_time']:.3g} {s['time_unit']} | {s['residual']:.1e} | {s['real_time']/d['real_time']:.2f}x |")
+bd = {}
+for b in load("bench_block_diagonal"):
+    kind, n = re.match(r"BM_(\w+)/(\d+)", b["run_name"]).groups()
+    bd[(kind, int(n))] = b
+def ms(b): return b["real_time"] * {"ms": 1.0, "us": 1e-3, "s": 1e3}[b["time_unit"]]
+print("\n| 004 filters (c = 2, d = 1, r = 20) | n | time per step | GFLOP/s | fraction of DGEMM |")
+print("|---|---|---|---|---|")
+for (kind, n), b in sorted(bd.items()):
+    print(f"| {kind} | {n} | {ms(b):.4g} ms | {b['GFLOP']:.2f} | {b['GFLOP']/dg:.0%} |")
+small, big = bd.get(("BlockDiagonalStep", 1000)), bd.get(("BlockDiagonalStep", 1000000))
+if small and big:
+    print(f"\nLinearity: t(n = 1e6) / (1000 t(n = 1e3)) = **{ms(big) / (1000 * ms(small)):.2f}** (target <= 1.3); "
+          f"t(n = 1e6) = **{ms(big) / 1e3:.2f} s** (target <= 1 s).")
+full, blk = bd.get(("FullStep", 2088)), bd.get(("BlockDiagonalStep", 2088))
+if full and blk:
+    print(f"Full KF / block-diagonal at n = 2088: **{ms(full) / ms(blk):.0f}x** (target >= 10^4).")
 PY
