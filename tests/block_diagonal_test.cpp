@@ -74,7 +74,7 @@ TEST_P(FastVsNaive, CovarianceGainAndEstimateAgree) {
 INSTANTIATE_TEST_SUITE_P(Sizes, FastVsNaive,
                          ::testing::Values(Dims{1, 1, 1, 1}, Dims{1, 2, 3, 4}, Dims{5, 2, 1, 3}, Dims{4, 3, 2, 1},
                                            Dims{7, 4, 2, 2}, Dims{3, 1, 1, 5}, Dims{300, 1, 1, 2}, Dims{260, 2, 1, 20},
-                                           Dims{2, 9, 9, 3}));
+                                           Dims{6, 3, 1, 4}, Dims{5, 6, 1, 2}, Dims{2, 9, 9, 3}));
 
 // The filter class over a time-varying system gives the same estimates as the naive kind.
 TEST(CoupledFilter, FastAndNaiveKindsAgreeOverARun) {

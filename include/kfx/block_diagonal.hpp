@@ -113,12 +113,13 @@ Model ToDenseModel(const CoupledSystem& system);
 /// The block-diagonal filter's gain in factored form. By eq. (17) with C_{k,2} = C_{k,1} and
 /// C_{k,3} = -C_{k,1} (docs/papers/004.md derives both),
 ///   K_k = blockdiag(J) - E C_1 Y^T,  J^(i) = L^(i) H^(i)T (M^(i))^{-1},  E = B_k - G,  Y = M_k^{-1} H_k G,
-/// so K nu costs O(n r) and never forms the (cn x dn) matrix.
+/// so K nu costs O(n r) and never forms the (cn x dn) matrix. E and Y are stored transposed (packed
+/// r x c and r x d blocks): each subsystem's r-vectors are contiguous, which the O(n r^2) step needs.
 struct BlockDiagonalGain {
   Eigen::MatrixXd J;   ///< c x (n d) packed blocks.
-  Eigen::MatrixXd E;   ///< (n c) x r: B_k - G (eq. (10) minus G).
+  Eigen::MatrixXd Et;  ///< r x (n c): E^T, E = B_k - G (eq. (10) minus G).
   Eigen::MatrixXd C1;  ///< r x r: C_{k,1} = (U^{-1} + N_k)^{-1} (eq. (11)), also Sigma_u.
-  Eigen::MatrixXd Y;   ///< (n d) x r: M_k^{-1} H_k G.
+  Eigen::MatrixXd Yt;  ///< r x (n d): Y^T, Y = M_k^{-1} H_k G.
 
   /// K nu for an innovation nu of length n d (eq. (7)'s correction term, O(n r)).
   Eigen::VectorXd Apply(const Eigen::VectorXd& innovation) const;
