@@ -13,6 +13,7 @@
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/performance.hpp"
+#include "kfx/reproduce.hpp"
 #include "kfx/sampling_convergence.hpp"
 #include "kfx/simulation.hpp"
 #include "support/matrix_testing.hpp"
@@ -464,6 +465,49 @@ TEST(WaveExample, UnseenModesAndLowerBound) {
     // Output coefficient d_k of the energy basis = c_{2^k} / sqrt(2) of the paper.
     const double corrected = 4.0 * s2 * s2 * c2 / (M_PI * M_PI * (R + normC2 * trP0));
     EXPECT_GE(inc, corrected) << "l " << l;
+  }
+}
+
+// The lower bound as printed, 8 sigma^2 c^2 / (pi^2 R + 4 pi^2 |C|^2 tr P0) with c = sqrt(2) d, has
+// sigma^2 where the proof gives sigma^4 (P_l e = sigma^2 e enters squared): for sigma^2 = 0.01 the
+// exact increment is far below the printed "lower bound", while the corrected one holds.
+TEST(WaveExample, PrintedLowerBoundFailsForSmallVariance) {
+  const int K = 4;
+  const double s2 = 0.01, R = 0.5;
+  const ContinuousModel m = WaveModalModel(std::vector<double>(K, s2), std::vector<double>(K, 1.0), R);
+  const double X = m.C.squaredNorm() * m.P0.trace(), c2 = 2.0;
+  const double printed = 8 * s2 * c2 / (M_PI * M_PI * R + 4 * M_PI * M_PI * X);
+  const double corrected = 2 * s2 * s2 * c2 / (M_PI * M_PI * (R + X));
+  double prev = SampledFilterCovariance(m, 1.0, 1).trace();
+  for (int l = 0; l < K; ++l) {
+    const double cur = SampledFilterCovariance(m, 1.0, 2 << l).trace();
+    EXPECT_LT(prev - cur, 0.1 * printed) << l;
+    EXPECT_GE(prev - cur, corrected) << l;
+    prev = cur;
+  }
+}
+
+TEST(ReproduceAaltoTemporal, KeysAreTheContract) {
+  const PaperReport r = Reproduce("aalto-temporal", ReproduceOptions{true, "", {}});
+  std::vector<std::string> keys;
+  for (const auto& it : r.items) keys.push_back(it.key);
+  std::vector<std::string> expected;
+  for (const std::string e : {"scalar", "osc_B0", "osc_noise", "rw_highsnr"}) {
+    expected.push_back(e + ".trPc");
+    for (const std::string n : {"1", "16", "1024"}) expected.push_back(e + ".err.n=" + n);
+    if (e == "rw_highsnr") expected.push_back(e + ".err.n=16384");
+    expected.push_back(e + ".rate");
+    expected.push_back(e + ".bound_over_err.n=1024");
+  }
+  for (const std::string w : {"rough", "smooth"}) {
+    expected.push_back("wave." + w + ".rate");
+    expected.push_back("wave." + w + ".err.n=1024");
+  }
+  EXPECT_EQ(keys, expected);
+  for (const auto& it : r.items) {
+    EXPECT_TRUE(std::isfinite(it.value)) << it.key;
+    if (it.key.find(".err.") != std::string::npos) EXPECT_GT(it.value, 0.0) << it.key;
+    if (it.key.find("bound_over_err") != std::string::npos) EXPECT_GT(it.value, 1.0) << it.key;
   }
 }
 
