@@ -82,7 +82,7 @@ MatrixXd HamiltonianExp(const ContinuousModel& m, double h) {
 }  // namespace
 
 MatrixXd ContinuousModel::ProcessNoise() const {
-  if (B.cols() == 0) return MatrixXd::Zero(A.rows(), A.rows());
+  if (B.size() == 0) return MatrixXd::Zero(A.rows(), A.rows());
   MatrixXd G = B * Q * B.transpose();
   Symmetrize(G);
   return G;
@@ -93,10 +93,13 @@ void ValidateContinuousModel(const ContinuousModel& m) {
   RequireFinite("A", m.A);
   const Index p = m.A.rows();
   if (p == 0) throw Error("A: expected at least one state (got 0 x 0)");
-  RequireShape("B", m.B, p, m.B.cols());
-  RequireFinite("B", m.B);
-  RequireShape("Q", m.Q, m.B.cols(), m.B.cols());
-  if (m.Q.size() > 0) RequirePositiveSemidefinite("Q", m.Q);
+  // No input noise: B and Q both empty (any 0-size shape), or B with zero columns.
+  if (m.B.size() > 0 || m.Q.size() > 0) {
+    RequireShape("B", m.B, p, m.B.cols());
+    RequireFinite("B", m.B);
+    RequireShape("Q", m.Q, m.B.cols(), m.B.cols());
+    RequirePositiveSemidefinite("Q", m.Q);
+  }
   if (m.C.rows() == 0) throw Error("C: expected at least one output row");
   RequireShape("C", m.C, m.C.rows(), p);
   RequireFinite("C", m.C);

@@ -118,7 +118,7 @@ PaperReport ReproduceAaltoTemporal(const ReproduceOptions& options) {
     ConvergenceStudyOptions opt;
     opt.n_values = Powers(ex.n_max);
     const ConvergenceStudy st = StudyConvergence(ex.model, ex.T, opt);
-    const bool noise = ex.model.B.cols() > 0;
+    const bool noise = ex.model.B.size() > 0;
     report.items.push_back(
         Item(ex.name + ".trPc", "tr P_c(T), Kalman-Bucy (Hamiltonian exponential + doubling)", st.tr_Pc));
     std::vector<int> keys = {1, 16, 1024};

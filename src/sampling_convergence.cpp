@@ -43,7 +43,6 @@ double SemigroupBound(const MatrixXd& A, double T) {
       best_i = i;
     }
   }
-  if (best_i == 0) return 1.0;
   auto f = [&](double t) { return SpectralNorm(MatrixExponential(A * t)); };
   double lo = std::max(0.0, (best_i - 1) * dt), hi = std::min(T, (best_i + 1) * dt);
   const double g = 0.5 * (std::sqrt(5.0) - 1.0);

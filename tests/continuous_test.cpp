@@ -95,6 +95,13 @@ TEST(ContinuousModel, ValidationNamesTheArgument) {
   m = good;
   m.P0(0, 1) = 0.5;
   ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "P0");
+  m = Oscillator(false);
+  m.B = MatrixXd();
+  m.Q = MatrixXd();
+  EXPECT_NO_THROW(ValidateContinuousModel(m));  // empty B and Q: no input noise
+  EXPECT_EQ(m.ProcessNoise().norm(), 0.0);
+  m.Q = M1(1.0);
+  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "B");
   m = good;
   m.Q = M1(-1.0);
   ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "Q");

@@ -27,8 +27,7 @@
 
 namespace kfx {
 
-/// The continuous-time model (1) of paper 003. B may have zero columns (no input noise; Q is
-/// then 0 x 0).
+/// The continuous-time model (1) of paper 003. No input noise: B and Q empty (or B p x 0, Q 0 x 0).
 struct ContinuousModel {
   Eigen::MatrixXd A;   ///< p x p
   Eigen::MatrixXd B;   ///< p x q
