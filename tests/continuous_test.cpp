@@ -513,8 +513,12 @@ TEST(ReproduceAaltoTemporal, KeysAreTheContract) {
   EXPECT_EQ(keys, expected);
   for (const auto& it : r.items) {
     EXPECT_TRUE(std::isfinite(it.value)) << it.key;
-    if (it.key.find(".err.") != std::string::npos) EXPECT_GT(it.value, 0.0) << it.key;
-    if (it.key.find("bound_over_err") != std::string::npos) EXPECT_GT(it.value, 1.0) << it.key;
+    if (it.key.find(".err.") != std::string::npos) {
+      EXPECT_GT(it.value, 0.0) << it.key;
+    }
+    if (it.key.find("bound_over_err") != std::string::npos) {
+      EXPECT_GT(it.value, 1.0) << it.key;
+    }
   }
 }
 
