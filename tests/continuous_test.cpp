@@ -385,7 +385,7 @@ TEST(ErrorIdentity, JointCovarianceOfCoarseAndFineFilters) {
 TEST(KalmanBucy, FilterOnSimulatedDataMatchesCovariances) {
   const ContinuousModel m = Oscillator(true);
   const double T = 2.0;
-  const int N = 256, n = 8, runs = 300;
+  const int N = 256, n = 8, runs = 200;
   const double trPc = KalmanBucyCovariance(m, T).trace();
   const double trPn = SampledFilterCovariance(m, T, n).trace();
   double s_kb = 0, s_kb2 = 0, s_n = 0, s_n2 = 0;
