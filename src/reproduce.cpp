@@ -32,7 +32,7 @@ const PaperInfo kPapers[] = {
     {"patel-toda", "Patel, Toda: modeling error analysis of stationary filters (002)", "002_3fbfce7a479149cb.txt",
      detail::ReproducePatelToda},
     {"aalto-temporal", "Aalto: convergence of discrete to continuous-time Kalman filter (003)",
-     "003_cdbc1acc1716879d.txt", nullptr},
+     "003_cdbc1acc1716879d.txt", detail::ReproduceAaltoTemporal},
     {"block-diagonal", "Pogorelyuk, Rowley, Kasdin: block-diagonal Kalman filter approximation (004)",
      "004_e32b16110c2ac44a.txt", detail::ReproduceBlockDiagonal},
 };

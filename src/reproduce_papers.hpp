@@ -7,5 +7,6 @@ namespace kfx::detail {
 
 PaperReport ReproducePatelToda(const ReproduceOptions& options);      // src/reproduce_patel_toda.cpp
 PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options);  // src/reproduce_block_diagonal.cpp
+PaperReport ReproduceAaltoTemporal(const ReproduceOptions& options);  // src/reproduce_aalto_temporal.cpp
 
 }  // namespace kfx::detail
