@@ -128,7 +128,7 @@ class Transformed {
     Symmetrize(q);
     return q;
   }
-  const MatrixXd& R(int k) const { return model_.step(k)->R; }
+  MatrixXd R(int k) const { return model_.step(k)->R; }  // by value: a callback model makes its steps anew
   MatrixXd Phi(int k) const {
     const MatrixXd Lp = L_.at(k) * T_;
     const MatrixXd Lr = Lp.leftCols(n_r_), Ls = Lp.rightCols(Lp.cols() - n_r_);

@@ -369,7 +369,9 @@ Model TriangularPlant(TestRng& rng, const MatrixXd& U, int nr, int m, int T, boo
     if (triangular) Ap.bottomLeftCorner(n - nr, nr).setZero();
     steps.push_back(MakeStep(U * Ap * U.transpose(), rng.Gaussian(m, n), rng.Spd(n, 0.2), rng.Spd(m, 0.3)));
   }
-  return Model(steps, rng.Gaussian(n, 1), rng.Spd(n, 0.5));
+  // A callback model (its steps are made anew on every call), as the reproduction uses.
+  return Model(
+      n, m, [steps](int k) { return steps[static_cast<size_t>(k - 1)]; }, rng.Gaussian(n, 1), rng.Spd(n, 0.5), T);
 }
 
 TEST(SubspaceOneStep, RecursionIsTheTrueErrorCovarianceOnlyInTriangularForm) {
@@ -479,6 +481,35 @@ TEST(SubspaceTwoStep, RecursionEqualsEngineInTriangularFormAndRatiosAreAtLeastOn
     EXPECT_LT(RelativeDifference(U * s.Qf[k] * U.transpose(), rf.error_moment[k]), 1e-9) << k;
     EXPECT_GE(Jda(k) / kf.filter(k), 1.0 - 1e-12);
     EXPECT_GE(Jf(k) / kf.predictor(k), 1.0 - 1e-12);
+  }
+}
+
+// ---- kfx reproduce bernstein -----------------------------------------------------------------
+
+TEST(BernsteinReproduce, PrintsTheIssueKeysAndEveryRatioIsAtLeastOne) {
+  ReproduceOptions o;
+  o.quick = true;
+  const PaperReport r = Reproduce("bernstein", o);
+  std::vector<std::string> expected;
+  for (const char* E : {"8", "16"}) {
+    for (const char* est :
+         {"reduced.onestep", "reduced.twostep_da", "reduced.twostep_f", "subspace.onestep", "subspace.twostep_da"}) {
+      for (const char* K : {"10", "100", "500"}) {
+        expected.push_back(std::string("sec5.ne=") + E + "." + est + ".k=" + K);
+      }
+    }
+  }
+  for (const char* E : {"4", "8"}) {
+    for (const char* K : {"10", "100", "500"}) {
+      expected.push_back(std::string("sec6.ne=") + E + ".subspace.onestep.k=" + K);
+    }
+  }
+  ASSERT_EQ(r.items.size(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(r.items[i].key, expected[i]);
+    EXPECT_TRUE(std::isfinite(r.items[i].value)) << expected[i];
+    EXPECT_GE(r.items[i].value, 1.0 - 1e-12) << expected[i];  // nothing beats the Kalman filter
+    EXPECT_LT(r.items[i].value, 10.0) << expected[i];
   }
 }
 
