@@ -110,7 +110,7 @@ MatrixXd SolveRight(const MatrixXd& X, const MatrixXd& V, const std::string& wha
   return llt.solve(X.transpose()).transpose();
 }
 
-int PrepareRun(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options, bool need_L_rows) {
+int PrepareRun(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   if (L.size() == 0) throw Error("L: expected a weight schedule");
@@ -118,7 +118,6 @@ int PrepareRun(const Model& model, const WeightSchedule& L, const ReducedOrderOp
     throw Error("L: expected " + std::to_string(model.state_dim()) + " columns (the state dimension), got " +
                 std::to_string(L.cols()));
   }
-  (void)need_L_rows;
   const int T = model.ResolveSteps(options.steps);
   if (T < 1) throw Error("options.steps: expected at least 1 step");
   if (L.size() > 1 && L.size() < T) {
@@ -228,9 +227,8 @@ void PriorPrediction(const Model& model, MatrixXd* second_moment, VectorXd* mean
 
 ReducedOrderOneStep ComputeReducedOrderOneStep(const Model& model, const WeightSchedule& L,
                                                const ReducedOrderOptions& options) {
-  const int T = detail::PrepareRun(model, L, options, true);
+  const int T = detail::PrepareRun(model, L, options);
   const double tol = options.rank_tolerance;
-  const Index n = model.state_dim();
   ReducedOrderOneStep out;
   out.Q.resize(static_cast<size_t>(T) + 1);
   out.Qhat.resize(static_cast<size_t>(T) + 1);
@@ -279,7 +277,6 @@ ReducedOrderOneStep ComputeReducedOrderOneStep(const Model& model, const WeightS
     out.Q[static_cast<size_t>(k) + 1] = std::move(Qn);
     out.cost(k + 1) = WeightedTrace(Ln, out.Q[static_cast<size_t>(k) + 1]);
   }
-  (void)n;
   return out;
 }
 
@@ -292,9 +289,8 @@ LinearFilter ReducedOrderOneStepFilter(const ReducedOrderOneStep& s, const Weigh
 
 ReducedOrderTwoStep ComputeReducedOrderTwoStep(const Model& model, const WeightSchedule& L,
                                                const ReducedOrderOptions& options) {
-  const int T = detail::PrepareRun(model, L, options, true);
+  const int T = detail::PrepareRun(model, L, options);
   const double tol = options.rank_tolerance;
-  const Index n = model.state_dim();
   ReducedOrderTwoStep out;
   const size_t N = static_cast<size_t>(T) + 1;
   out.Cf.resize(N);
@@ -361,7 +357,6 @@ ReducedOrderTwoStep ComputeReducedOrderTwoStep(const Model& model, const WeightS
     out.Qf[i + 1] = sn->A * out.Qda[i] * sn->A.transpose() + sn->Q + pf.lost;
     Symmetrize(out.Qf[i + 1]);
   }
-  (void)n;
   return out;
 }
 

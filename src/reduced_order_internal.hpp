@@ -17,7 +17,7 @@ Eigen::MatrixXd SymmetricPseudoInverse(const Eigen::MatrixXd& S, double rank_tol
 Eigen::MatrixXd SolveRight(const Eigen::MatrixXd& X, const Eigen::MatrixXd& V, const std::string& what);
 
 /// Validates options and weights against the model; returns T.
-int PrepareRun(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options, bool need_L_rows);
+int PrepareRun(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options);
 
 /// z_k = (xi_k, y_k); Ae[k-2], Be[k-2] for k >= 2; output(k) maps xi_k to an estimate of x_k.
 LinearFilter OneStepFilter(const Eigen::VectorXd& xi1, const std::vector<Eigen::MatrixXd>& Ae,

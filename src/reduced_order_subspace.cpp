@@ -186,7 +186,7 @@ MatrixXd ProjectedLoss(const MatrixXd& N, const MatrixXd& mu) {
 
 SubspaceOneStep ComputeSubspaceOneStep(const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r,
                                        const WeightSchedule& L, const ReducedOrderOptions& options) {
-  const int K = detail::PrepareRun(model, L, options, false);
+  const int K = detail::PrepareRun(model, L, options);
   const Transformed tr(model, T, n_r, L);
   SubspaceOneStep out;
   out.meas_dim = model.meas_dim();
@@ -234,7 +234,7 @@ LinearFilter SubspaceOneStepFilter(const SubspaceOneStep& s, const Eigen::Matrix
 
 SubspaceTwoStep ComputeSubspaceTwoStep(const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r,
                                        const WeightSchedule& L, const ReducedOrderOptions& options) {
-  const int K = detail::PrepareRun(model, L, options, false);
+  const int K = detail::PrepareRun(model, L, options);
   const Transformed tr(model, T, n_r, L);
   SubspaceTwoStep out;
   const size_t N = static_cast<size_t>(K) + 1;
