@@ -120,13 +120,43 @@ def aalto_temporal(d):
         ax.legend(fontsize=7)
         fig.tight_layout()
         path = os.path.join(d, "wave.png")
+
+
+def bernstein(d):
+    """001: Fig. 2 (a) reduced-order, (b) subspace (Sec. V, n_e = 8, 16) and Fig. 3 (Sec. VI, subspace,
+    n_e = 4, 8) as J_k / J_k^KF against k (001's indexing)."""
+    out = []
+    for csv_name, png, title in [
+        ("fig2a.csv", "fig2a.png", "(a) reduced-order estimator ($\\tau$), Sec. V"),
+        ("fig2b.csv", "fig2b.png", "(b) subspace estimator ($\\mu$), Sec. V"),
+        ("fig3.csv", "fig3.png", "subspace estimator ($\\mu$), free-free chain, Sec. VI"),
+    ]:
+        path_csv = os.path.join(d, csv_name)
+        if not os.path.exists(path_csv):
+            continue
+        rows = read_csv(path_csv)
+        ks = [int(r["k"]) for r in rows]
+        fig, ax = plt.subplots(figsize=(5.5, 4))
+        for col in [c for c in rows[0].keys() if c != "k"]:
+            kind, ne = col.rsplit("_ne", 1)
+            style = {"onestep": "-", "twostep_da": "--", "twostep_f": ":"}[kind]
+            label = {"onestep": "one-step", "twostep_da": "two-step, data assimilation",
+                     "twostep_f": "two-step, forecast"}[kind]
+            ax.plot(ks, [float(r[col]) for r in rows], style, label=f"{label}, $n_e$ = {ne}")
+        ax.set_xlabel("k (time index)")
+        ax.set_ylabel("$J_k / J_k^{KF}$")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+        path = os.path.join(d, png)
+        fig.tight_layout()
         fig.savefig(path, dpi=120)
         plt.close(fig)
         out.append(path)
     return out
 
 
-RENDERERS = {"block-diagonal": block_diagonal, "aalto-temporal": aalto_temporal}
+RENDERERS = {"block-diagonal": block_diagonal, "aalto-temporal": aalto_temporal, "bernstein": bernstein}
 
 
 def main(argv):

@@ -56,4 +56,20 @@ void sb03md_(const char* dico, const char* job, const char* fact, const char* tr
              double* ferr, double* wr, double* wi, int* iwork, double* dwork, const int* ldwork, int* info,
              std::size_t dico_len, std::size_t job_len, std::size_t fact_len, std::size_t trana_len);
 
+/// LAPACK DGEES: real Schur form A = Z T Z^T (jobvs = 'V'), sort = 'N' (select not referenced).
+/// wr/wi: eigenvalues in the order of the diagonal of T; lwork = -1 is a workspace query.
+void dgees_(const char* jobvs, const char* sort, kfx_fortran_logical (*select)(const double*, const double*),
+            const int* n, double* a, const int* lda, int* sdim, double* wr, double* wi, double* vs, const int* ldvs,
+            double* work, const int* lwork, kfx_fortran_logical* bwork, int* info, std::size_t jobvs_len,
+            std::size_t sort_len);
+
+/// LAPACK DTRSEN: reorders a real Schur form so that the selected eigenvalues (select(j) true; a
+/// complex pair is moved together) lead the diagonal; with compq = 'V' the Schur vectors q are
+/// updated. job = 'N': no condition numbers (lwork >= max(1, n), liwork >= 1). info = 1: reordering
+/// failed (T too close to having the selected and other eigenvalues equal).
+void dtrsen_(const char* job, const char* compq, const kfx_fortran_logical* select, const int* n, double* t,
+             const int* ldt, double* q, const int* ldq, double* wr, double* wi, int* m, double* s, double* sep,
+             double* work, const int* lwork, int* iwork, const int* liwork, int* info, std::size_t job_len,
+             std::size_t compq_len);
+
 }  // extern "C"

@@ -5,6 +5,7 @@
 
 namespace kfx::detail {
 
+PaperReport ReproduceBernstein(const ReproduceOptions& options);      // src/reproduce_bernstein.cpp
 PaperReport ReproducePatelToda(const ReproduceOptions& options);      // src/reproduce_patel_toda.cpp
 PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options);  // src/reproduce_block_diagonal.cpp
 PaperReport ReproduceAaltoTemporal(const ReproduceOptions& options);  // src/reproduce_aalto_temporal.cpp
