@@ -2,12 +2,19 @@
 #include "kfx/damped_wave.hpp"
 
 #include <Eigen/Sparse>
-#include <Eigen/SparseLU>
 #include <cmath>
 #include <memory>
 
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
+
+extern "C" {
+// LAPACK band LU (Debian liblapack).
+void dgbtrf_(const int* m, const int* n, const int* kl, const int* ku, double* ab, const int* ldab, int* ipiv,
+             int* info);
+void dgbtrs_(const char* trans, const int* n, const int* kl, const int* ku, const int* nrhs, const double* ab,
+             const int* ldab, const int* ipiv, double* b, const int* ldb, int* info, std::size_t trans_len);
+}
 
 namespace kfx {
 
@@ -15,6 +22,47 @@ namespace {
 
 using Eigen::MatrixXd;
 using SpMat = Eigen::SparseMatrix<double>;
+
+// The implicit-Euler matrix G = M_aug - dt A_cont in the interleaved ordering (z_1, v_1, z_2, v_2, ...),
+// where it is banded with kl = ku = 3, factored once by LAPACK dgbtrf; Solve applies G^{-1} to a block
+// given in kfx's (z, v) ordering.
+class BandedImplicitEuler {
+ public:
+  BandedImplicitEuler(const SpMat& G, int n) : n_(n), N_(2 * n), ldab_(2 * kKl + kKu + 1) {
+    ab_.assign(static_cast<std::size_t>(ldab_) * N_, 0.0);
+    ipiv_.assign(static_cast<std::size_t>(N_), 0);
+    for (int k = 0; k < G.outerSize(); ++k) {
+      for (SpMat::InnerIterator it(G, k); it; ++it) {
+        const int i = Interleaved(static_cast<int>(it.row())), j = Interleaved(static_cast<int>(it.col()));
+        KFX_ASSERT(i - j <= kKl && j - i <= kKu);
+        ab_[static_cast<std::size_t>(kKl + kKu + i - j) + static_cast<std::size_t>(j) * ldab_] = it.value();
+      }
+    }
+    int info = 0;
+    dgbtrf_(&N_, &N_, &kKl, &kKu, ab_.data(), &ldab_, ipiv_.data(), &info);
+    if (info != 0) throw NumericalError("M_aug - dt A_cont: band LU failed (dgbtrf info " + std::to_string(info) + ")");
+  }
+  // X (2n x c) in (z, v) ordering -> G^{-1} X in the same ordering.
+  MatrixXd Solve(const MatrixXd& X) const {
+    const int c = static_cast<int>(X.cols());
+    MatrixXd B(N_, c);
+    for (int i = 0; i < N_; ++i) B.row(Interleaved(i)) = X.row(i);
+    int info = 0;
+    const char trans = 'N';
+    dgbtrs_(&trans, &N_, &kKl, &kKu, &c, ab_.data(), &ldab_, ipiv_.data(), B.data(), &N_, &info, 1);
+    KFX_ASSERT(info == 0);
+    MatrixXd Y(N_, c);
+    for (int i = 0; i < N_; ++i) Y.row(i) = B.row(Interleaved(i));
+    return Y;
+  }
+
+ private:
+  static constexpr int kKl = 3, kKu = 3;
+  int Interleaved(int i) const { return i < n_ ? 2 * i : 2 * (i - n_) + 1; }
+  int n_, N_, ldab_;
+  std::vector<double> ab_;
+  std::vector<int> ipiv_;
+};
 
 void RequireNodes(int nodes) {
   if (nodes < 1) throw Error("nodes: expected at least 1 interior node, got " + std::to_string(nodes));
@@ -163,21 +211,24 @@ WaveDiscretization DiscretizeDampedWave(int nodes, const DampedWaveOptions& opti
   SpMat G(2 * n, 2 * n);
   G.setFromTriplets(t.begin(), t.end());
   G.makeCompressed();
-  auto lu = std::make_shared<Eigen::SparseLU<SpMat>>();
-  lu->compute(G);
-  if (lu->info() != Eigen::Success) throw NumericalError("M_aug - dt A_cont: sparse LU failed");
+  auto lu = std::make_shared<const BandedImplicitEuler>(G, n);
   auto Mp = std::make_shared<SpMat>(M);
   d.apply_A = [lu, Mp, n](const MatrixXd& X) -> MatrixXd {
     MatrixXd rhs(X.rows(), X.cols());
     rhs.topRows(n) = X.topRows(n);
     rhs.bottomRows(n) = (*Mp) * X.bottomRows(n);
-    MatrixXd Y = lu->solve(rhs);
-    return Y;
+    return lu->Solve(rhs);
   };
   const MatrixXd U = options.U.size() > 0 ? options.U : MatrixXd(Eigen::Vector3d(1.0, 1.0, 0.25).asDiagonal());
   const MatrixXd R = options.R.size() > 0 ? options.R : MatrixXd(Eigen::Vector2d(0.3, 0.15).asDiagonal());
   MatrixXd B = MatrixXd::Zero(2 * n, 3);
-  B.bottomRows(n) = d.mass.llt().solve(d.load);
+  if (options.noise_before_implicit_step) {
+    MatrixXd F0 = MatrixXd::Zero(2 * n, 3);
+    F0.bottomRows(n) = d.load;
+    B = lu->Solve(F0);
+  } else {
+    B.bottomRows(n) = d.mass.llt().solve(d.load);
+  }
   MatrixXd C = MatrixXd::Zero(2, 2 * n);
   C.leftCols(n) = d.output;
   MatrixXd A;

@@ -133,6 +133,16 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
   const MatrixXd& Qn = truth.Q;
   const MatrixXd& C = truth.C;
   const MatrixXd& R = truth.R;
+  if (options.stationary_prior) {
+    const MatrixXd resid = Sandwich(applyA, S0) + Qn - S0;
+    const double rel = resid.norm() / std::max(S0.norm(), std::numeric_limits<double>::min());
+    if (!(rel <= 1e-8)) {
+      throw Error(
+          "S0: expected the stationary state covariance (S0 = A S0 A^T + Q) with options.stationary_prior, "
+          "relative residual " +
+          std::to_string(rel));
+    }
+  }
 
   SubspaceFilterSchedule out;
   MatrixXd S = S0, P = S0, Q = Pi_adj, St = MatrixXd::Zero(n, n);
@@ -151,19 +161,24 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     }
   }
   out.pinv_rank.push_back(0);
-  MatrixXd Pt, K, V, St_pinv, M_k;
+  MatrixXd K, V, St_pinv, M_k;
   int small_changes = 0;
   int k = 0;
+  const bool want_P = options.store_covariances || options.rde_check;
+  MatrixXd AQ, St_prev;
   for (k = 1; k <= T_max; ++k) {
-    // Prediction: S_k, P~_k, and the anchor A Q_{k-1} (N x n).
-    S = Sandwich(applyA, S);
-    S += Qn;
-    Pt = Sandwich(applyA, P);
-    Pt += Qn;
-    Symmetrize(Pt);
-    const MatrixXd AQ = applyA(Q);
+    // S_k (15), and the anchor A Q_{k-1} (N x n). P~_k = A P_{k-1} A^T + Q (13) with
+    // P_{k-1} = S_{k-1} - Q_{k-1} S~_{k-1} Q_{k-1}^T is S_k - (A Q_{k-1}) S~_{k-1} (A Q_{k-1})^T: only
+    // its product with C^T is needed, O(N n (n + m)) instead of two N x N applications of A.
+    if (!options.stationary_prior) {
+      S = Sandwich(applyA, S);
+      S += Qn;
+    }
+    AQ = applyA(Q);
+    St_prev = St;
     // Gain (14).
-    const MatrixXd PtCt = Pt * C.transpose();
+    MatrixXd PtCt = S * C.transpose();
+    PtCt.noalias() -= AQ * (St * (AQ.transpose() * C.transpose()));
     MatrixXd Sinn = R;
     Sinn.noalias() += C * PtCt;
     Symmetrize(Sinn);
@@ -192,10 +207,11 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     Resid.noalias() -= Pi_adj * St;  // (I - Pi_s) V_k, as Pi V_k = S~_k
     Q = Pi_adj;
     Q.noalias() += Resid * St_pinv;
-    const MatrixXd QSt = Q * St;
-    P = S;
-    P.noalias() -= QSt * Q.transpose();
-    Symmetrize(P);
+    if (want_P) {
+      P = S;
+      P.noalias() -= (Q * St) * Q.transpose();
+      Symmetrize(P);
+    }
 
     if (options.rde_check) {
       // (20): P~ from its own previous P, the Kalman-type update, and the load M_k (21).
@@ -245,8 +261,17 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
   out.steps = std::min(k, T_max);
   out.K = K;
   out.Q = Q;
-  out.P_final = P;
-  out.P_pred = Pt;
+  if (out.steps > 0) {
+    out.P_final = S;
+    out.P_final.noalias() -= (Q * St) * Q.transpose();
+    Symmetrize(out.P_final);
+    out.P_pred = S;
+    out.P_pred.noalias() -= (AQ * St_prev) * AQ.transpose();
+    Symmetrize(out.P_pred);
+  } else {
+    out.P_final = S0;
+    out.P_pred = S0;
+  }
   out.S = S;
   out.S_tilde = St;
   out.V = V;

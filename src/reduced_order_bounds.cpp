@@ -15,8 +15,9 @@ using Eigen::MatrixXd;
 
 double Norm2(const MatrixXd& X) {
   if (X.size() == 0) return 0.0;
-  Eigen::BDCSVD<MatrixXd> svd(X);
-  return svd.singularValues()(0);
+  const MatrixXd G = X.rows() >= X.cols() ? MatrixXd(X.transpose() * X) : MatrixXd(X * X.transpose());
+  Eigen::SelfAdjointEigenSolver<MatrixXd> es(G, Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(0.0, es.eigenvalues().maxCoeff()));
 }
 
 // L of Lemma A.1 (iii): sup tr(L^{-1} X) / tr X over X >= 0 = lambda_max(Y), Y = Phi^T Y Phi + I
@@ -89,7 +90,14 @@ DiscretizationBounds ComputeDiscretizationBounds(const ModelStep& truth, const E
 
   DiscretizationBounds b;
   b.trace_M = M.trace();
-  b.trace_M_inf = schedule.M_final.size() > 0 ? cov(schedule.M_final).trace() : 0.0;
+  {
+    // M_inf (21) from the converged quantities: (I - Q Pi) (A Q S~ Q^T A^T + K (C P~ C^T + R) K^T) (I - Q Pi)^T.
+    const MatrixXd AQ = truth.A * schedule.Q;
+    MatrixXd Sinn = truth.R + truth.C * schedule.P_pred * truth.C.transpose();
+    MatrixXd X = AQ * schedule.S_tilde * AQ.transpose() + schedule.K * Sinn * schedule.K.transpose();
+    const MatrixXd IQPi = MatrixXd::Identity(N, N) - schedule.Q * subspace.projection;
+    b.trace_M_inf = cov(IQPi * X * IQPi.transpose()).trace();
+  }
 
   // Full filter (23) with W^(F) = Q and the perturbed one with W^(b) = Q + A M A^T.
   const DareSolution full = SolveFilterDare(A, C, Qn, R);

@@ -18,7 +18,7 @@
 namespace kfx {
 
 /// P1 finite elements on the uniform mesh of [0, 1] with `nodes` interior nodes (h = 1 / (nodes + 1)),
-/// Dirichlet at both ends. Dense matrices (the builder keeps a sparse factorization for A).
+/// Dirichlet at both ends. Dense matrices (the builder keeps a band LU factorization for A).
 Eigen::MatrixXd P1Stiffness(int nodes);  ///< K_ij = int phi_i' phi_j' (tridiag(-1, 2, -1) / h)
 Eigen::MatrixXd P1Mass(int nodes);       ///< M_ij = int phi_i phi_j (tridiag(1, 4, 1) h / 6)
 /// F_ij = int_0^1 f_j(x) phi_i(x) dx (nodes x f.size()) by composite Gauss-Legendre quadrature
@@ -29,12 +29,15 @@ Eigen::MatrixXd P1Load(int nodes, const std::vector<std::function<double(double)
 Eigen::MatrixXd P1Prolongation(int fine_nodes, int coarse_nodes);
 
 struct DampedWaveOptions {
-  int fine_nodes = 65;        ///< N_f
-  int coarse_nodes = 5;       ///< N_c
-  double eps = 0.4;           ///< damping
-  double dt = 0.01;           ///< time step
-  Eigen::MatrixXd U;          ///< 3 x 3 input intensity (empty: diag(1, 1, 0.25)); U_d = dt U
-  Eigen::MatrixXd R;          ///< 2 x 2 measurement noise covariance (empty: diag(0.3, 0.15)), not divided by dt
+  int fine_nodes = 65;   ///< N_f
+  int coarse_nodes = 5;  ///< N_c
+  double eps = 0.4;      ///< damping
+  double dt = 0.01;      ///< time step
+  Eigen::MatrixXd U;     ///< 3 x 3 input intensity (empty: diag(1, 1, 0.25)); U_d = dt U
+  Eigen::MatrixXd R;     ///< 2 x 2 measurement noise covariance (empty: diag(0.3, 0.15)), not divided by dt
+  /// Another reading (not the issue's): the noise enters the implicit step,
+  /// (M_aug - dt A_cont) x_k = M_aug x_{k-1} + [0; F] u_k, i.e. B_d = (M_aug - dt A_cont)^{-1} [0; F].
+  bool noise_before_implicit_step = false;
   bool build_dense_A = true;  ///< also form the dense A (2 N_f)^2 (needed by ModelStep; O(N_f^2) memory)
   bool IsValid(std::string* error) const;
 };
@@ -44,7 +47,7 @@ struct WaveDiscretization {
   int nodes = 0;
   Eigen::MatrixXd stiffness, mass, load, output;  ///< K, M, F (nodes x 3), C_z (2 x nodes)
   ModelStep step;                                 ///< A, B = B_d, U = U_d, Q = B_d U_d B_d^T, C, R
-  BlockOperator apply_A;                          ///< X -> A X by a sparse LU solve
+  BlockOperator apply_A;                          ///< X -> A X by a band LU solve (LAPACK dgbtrs)
   Eigen::MatrixXd gram;                           ///< W = blkdiag(K, M)
   Eigen::MatrixXd gram_position, gram_velocity;   ///< blkdiag(K, 0), blkdiag(0, M)
 };

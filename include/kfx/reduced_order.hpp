@@ -80,6 +80,10 @@ struct SubspaceFilterOptions {
   /// relative difference to P_k = S_k - Q_k S~_k Q_k^T goes to the result.
   bool rde_check = false;
   BlockOperator apply_A;  ///< empty: the dense product with truth.A
+  /// S0 is the stationary state covariance (S0 = A S0 A^T + Q, checked to 1e-8 relative), so S_k = S0
+  /// and no N x N product is formed per step: the cost per step is one application of A to an N x n
+  /// block plus O(N n (n + m)) (P_k is then formed only at the end unless stored).
+  bool stationary_prior = false;
   ProgressCallback progress;
   bool IsValid(std::string* error) const;
 };
