@@ -1,8 +1,8 @@
 // Paper 000 at scale: the offline schedule of Algorithm 2.3 for the damped wave equation (state
 // dimension N = 2 N_f), from the stationary prior S_0 = S (discrete Lyapunov, SLICOT SB03MD) until K_k
-// and Q_k change by <= 1e-11 (relative), with A applied through the band LU of the implicit-Euler
-// matrix. One iteration per size. Counters: the Lyapunov solve's seconds, steps to convergence,
-// milliseconds per step, peak resident memory of the process (monotone over the run: sizes ascend).
+// and Q_k change by <= 1e-11 (relative) or 3000 steps (rho(filter)^(2 * 3000) ~ 1e-12), with A applied through the band
+// LU of the implicit-Euler matrix. One iteration per size. Counters: the Lyapunov solve's seconds, steps to
+// convergence, milliseconds per step, peak resident memory of the process (monotone over the run: sizes ascend).
 //   OPENBLAS_NUM_THREADS=1 ./build/bench/bench_reduced_order --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
@@ -30,7 +30,7 @@ void BM_SubspaceScheduleToConvergence(benchmark::State& state) {
   kfx::SubspaceFilterOptions so;
   so.store_schedule = false;
   so.apply_A = p.fine.apply_A;
-  so.max_steps = 20000;
+  so.max_steps = 3000;
   so.stationary_prior = true;
   kfx::SubspaceFilterSchedule s;
   double lyap_seconds = 0;
@@ -48,6 +48,8 @@ void BM_SubspaceScheduleToConvergence(benchmark::State& state) {
   state.counters["n"] = static_cast<double>(p.subspace.reduced_dim());
   state.counters["steps"] = s.steps;
   state.counters["converged"] = s.converged ? 1 : 0;
+  state.counters["last_change"] = s.last_change;
+  state.counters["rank_S~"] = s.pinv_rank.back();
   state.counters["ms_per_step"] = 1e3 * s.seconds / std::max(1, s.steps);
   state.counters["peak_rss_MB"] = PeakRssMb();
 }
@@ -55,7 +57,6 @@ void BM_SubspaceScheduleToConvergence(benchmark::State& state) {
 BENCHMARK(BM_SubspaceScheduleToConvergence)
     ->Args({65, 5})
     ->Args({251, 20})
-    ->Args({503, 20})
     ->Args({1000, 12})
     ->Args({1028, 20})
     ->Iterations(1)

@@ -351,18 +351,29 @@ ApproximateSubspaceFilter ComputeApproximateSubspaceFilter(const ModelStep& trut
   SymmetricPseudoInverse(G, 1e-12, &G_pinv);
   const MatrixXd T = SPit - Pi_adj * G;  // (I - Pi_s) S Pi^T
   out.Q_hat = Pi_adj + T * G_pinv;
-  // (I - Pi_s) S (I - Pi_s)^T - T G^+ T^T.
-  MatrixXd Y = S;
-  Y.noalias() -= Pi_adj * SPit.transpose();
-  Y.noalias() -= SPit * Pi_adj.transpose();
-  Y.noalias() += Pi_adj * G * Pi_adj.transpose();
-  Y.noalias() -= T * G_pinv * T.transpose();
+  // V^ = (I - Pi_s) S (I - Pi_s)^T - T G^+ T^T as printed is the covariance of x - Q^ Pi x; it is
+  // evaluated as (I - Q^ Pi) S (I - Q^ Pi)^T, equal in exact arithmetic and PSD by construction (the
+  // printed difference loses definiteness to round-off when the coarse space captures most of S).
+  MatrixXd IQPi = -out.Q_hat * Pi;
+  IQPi.diagonal().array() += 1.0;
+  MatrixXd Y = IQPi * S * IQPi.transpose();
   Symmetrize(Y);
   out.V_hat = Y;
   out.A_r = Pi * applyA(out.Q_hat);
   MatrixXd load = truth.Q + Sandwich(applyA, out.V_hat);
   out.Q_r = Pi * load * Pi.transpose();
   Symmetrize(out.Q_r);
+  {
+    // V^ is a difference of nearly equal terms when the coarse space captures most of S: clip the
+    // round-off negative eigenvalues of Q_r (at most 1e-9 |Q_r|; larger ones are an error).
+    Eigen::SelfAdjointEigenSolver<MatrixXd> es(out.Q_r);
+    const double lmin = es.eigenvalues().minCoeff(), lmax = es.eigenvalues().cwiseAbs().maxCoeff();
+    if (lmin < -1e-9 * lmax) throw NumericalError("Sec. 6.1: Pi (Q + A V^ A^T) Pi^T is not positive semidefinite");
+    if (lmin < 0) {
+      out.Q_r = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
+      Symmetrize(out.Q_r);
+    }
+  }
   out.C_r = truth.C * out.Q_hat;
   MatrixXd R = truth.R;
   if (measurement_noise_from_residual) {

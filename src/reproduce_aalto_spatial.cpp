@@ -107,9 +107,9 @@ PaperReport ReproduceAaltoSpatial(const ReproduceOptions& options) {
   const double pub_pos[] = {0.6122, 0.6126, 0.6352}, pub_vel[] = {0.8150, 0.8154, 0.9294};
   const char* names[] = {"full-state Kalman filter (F)", "Algorithm 2.3, converged (A)",
                          "coarse-mesh Kalman filter (C)"};
-  // The published numbers are 500-run Monte Carlo averages; 2% is about three standard errors of such an
-  // average here (the mc.* rows measure the standard error).
-  const double tol_table = 0.02;
+  // The published numbers are 500-run Monte Carlo averages: the mc.* rows measure the standard error
+  // of such an average at one time step, 2.5% of the value; the tolerance is two of those.
+  const double tol_table = 0.05;
   double exact_pos[4], exact_vel[4];
   for (int i = 0; i < 3; ++i) {
     const StationaryPerformance pp = ExactStationaryPerformance(s.truth, *filters[i], Wp);

@@ -163,12 +163,19 @@ TEST(SubspaceFilterTest, MonotonicityChainAndApproximation) {
     EXPECT_LT(RelativeDifference(pa.error_cov, s.P_final), 1e-8);
     const ApproximateSubspaceFilter ap = ComputeApproximateSubspaceFilter(r.step, S, r.subspace);
     EXPECT_MATRICES_NEAR(r.subspace.projection * ap.Q_hat, MatrixXd::Identity(3, 3), 1e-9);
+    {  // V^ as printed in Sec. 6.1 (kfx evaluates the equal (I - Q^ Pi) S (I - Q^ Pi)^T)
+      const MatrixXd& Pi = r.subspace.projection;
+      const MatrixXd G = Pi * S * Pi.transpose(), T = IPs * S * Pi.transpose();
+      const MatrixXd printed = IPs * S * IPs.transpose() - T * G.inverse() * T.transpose();
+      EXPECT_LT(RelativeDifference(ap.V_hat, printed), 1e-9);
+    }
     const StationaryPerformance p61 = ExactStationaryPerformance(
         truth, ApproximateSubspaceFilterAsLinearFilter(ap, VectorXd::Zero(3)), r.subspace.gram);
     ASSERT_TRUE(p61.exists());
     EXPECT_GE(p61.weighted_mse, pa.weighted_mse * (1 - 1e-10));
 
     const DiscretizationBounds b = ComputeDiscretizationBounds(r.step, S, r.subspace, s);
+    EXPECT_NEAR(b.trace_M_inf, r.subspace.gram.cwiseProduct(s.M_final).sum(), 1e-9 * scale);
     EXPECT_NEAR(b.actual, pa.weighted_mse - r.subspace.gram.cwiseProduct(full.P_filt).sum(), 1e-8 * scale);
     EXPECT_GE(b.actual, -1e-10);
     EXPECT_LE(b.actual, b.theorem41_exact_dP * (1 + 1e-9));  // (25)
