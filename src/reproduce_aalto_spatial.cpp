@@ -9,7 +9,7 @@
 #include "kfx/damped_wave.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/performance.hpp"
-#include "kfx/reduced_order.hpp"
+#include "kfx/subspace_filter.hpp"
 #include "kfx/riccati.hpp"
 #include "reproduce_papers.hpp"
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "kfx/model.hpp"
-#include "kfx/reduced_order.hpp"
+#include "kfx/subspace_filter.hpp"
 
 namespace kfx {
 

@@ -1,10 +1,10 @@
 // The error bounds of Sec. 4 of paper 000: Theorem 4.1 ((25), (27), Lemma A.1's L and L_0),
-// Theorem 4.2 and Remark 4.3 (reduced_order.hpp). Corrections: docs/papers/000.md.
+// Theorem 4.2 and Remark 4.3 (subspace_filter.hpp). Corrections: docs/papers/000.md.
 #include <cmath>
 #include <limits>
 
 #include "kfx/error.hpp"
-#include "kfx/reduced_order.hpp"
+#include "kfx/subspace_filter.hpp"
 #include "kfx/validation.hpp"
 
 namespace kfx {

@@ -1,7 +1,7 @@
 // Paper 000 (Aalto): Algorithm 2.3 against the Kalman filter (Pi = I), against the RDE (20) and the
 // exact-performance engine on seeded random systems; Lemma 3.2, the monotonicity chain of Theorem 4.1,
 // the Sec. 6.1 approximation; the P1 finite elements of Sec. 5 against closed forms.
-#include "kfx/reduced_order.hpp"
+#include "kfx/subspace_filter.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
-// Algorithm 2.3 of paper 000, the RDE (20) check and the Sec. 6.1 approximation (reduced_order.hpp).
-#include "kfx/reduced_order.hpp"
+// Algorithm 2.3 of paper 000, the RDE (20) check and the Sec. 6.1 approximation (subspace_filter.hpp).
+#include "kfx/subspace_filter.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -3,14 +3,14 @@
 // and Q_k change by <= 1e-11 (relative) or 3000 steps (rho(filter)^(2 * 3000) ~ 1e-12), with A applied through the band
 // LU of the implicit-Euler matrix. One iteration per size. Counters: the Lyapunov solve's seconds, steps to
 // convergence, milliseconds per step, peak resident memory of the process (monotone over the run: sizes ascend).
-//   OPENBLAS_NUM_THREADS=1 ./build/bench/bench_reduced_order --benchmark_counters_tabular=true
+//   OPENBLAS_NUM_THREADS=1 ./build/bench/bench_subspace_filter --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 
 #include <chrono>
 
 #include "kfx/damped_wave.hpp"
-#include "kfx/reduced_order.hpp"
+#include "kfx/subspace_filter.hpp"
 #include "kfx/riccati.hpp"
 
 namespace {
