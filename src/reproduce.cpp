@@ -26,7 +26,7 @@ struct PaperInfo {
 
 const PaperInfo kPapers[] = {
     {"aalto-spatial", "Aalto: spatial discretization error in Kalman filtering (000)", "000_2fdf8a9810478b94.txt",
-     nullptr},
+     detail::ReproduceAaltoSpatial},
     {"bernstein", "Chandrasekar, Kim, Bernstein: finite-horizon reduced-order estimators (001)",
      "001_1f60d5bfbc0b8ad7.txt", detail::ReproduceBernstein},
     {"patel-toda", "Patel, Toda: modeling error analysis of stationary filters (002)", "002_3fbfce7a479149cb.txt",

@@ -5,6 +5,7 @@
 
 namespace kfx::detail {
 
+PaperReport ReproduceAaltoSpatial(const ReproduceOptions& options);   // src/reproduce_aalto_spatial.cpp
 PaperReport ReproduceBernstein(const ReproduceOptions& options);      // src/reproduce_bernstein.cpp
 PaperReport ReproducePatelToda(const ReproduceOptions& options);      // src/reproduce_patel_toda.cpp
 PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options);  // src/reproduce_block_diagonal.cpp
