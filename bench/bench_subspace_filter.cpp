@@ -10,8 +10,8 @@
 #include <chrono>
 
 #include "kfx/damped_wave.hpp"
-#include "kfx/subspace_filter.hpp"
 #include "kfx/riccati.hpp"
+#include "kfx/subspace_filter.hpp"
 
 namespace {
 

@@ -9,8 +9,8 @@
 #include "kfx/damped_wave.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/performance.hpp"
-#include "kfx/subspace_filter.hpp"
 #include "kfx/riccati.hpp"
+#include "kfx/subspace_filter.hpp"
 #include "reproduce_papers.hpp"
 
 namespace kfx::detail {
