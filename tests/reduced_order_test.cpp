@@ -462,6 +462,15 @@ TEST(SubspaceEstimators, FullDimensionWithIdentityWeightIsTheKalmanFilterAndPred
     EXPECT_NEAR(J1(k) / kf.predictor(k), 1.0, 1e-9) << k;
     EXPECT_NEAR(Jda(k) / kf.filter(k), 1.0, 1e-9) << k;
   }
+  // Same estimates on any measurement sequence (the predictor and the filter of the Kalman filter).
+  const TimeSeries y = rng.Gaussian(T, m);
+  const TimeSeries e1 = RunLinearFilter(SubspaceOneStepFilter(s1, I, n), y);
+  const TimeSeries eda = RunLinearFilter(SubspaceTwoStepFilter(s2, I, n, TwoStepOutput::kDataAssimilation), y);
+  const FilterRun run = RunFilter(model, y);
+  for (int k = 1; k <= T; ++k) {
+    EXPECT_LT((e1.row(k) - run.x_pred.row(k)).norm(), 1e-9 * std::max(1.0, run.x_pred.row(k).norm())) << k;
+    EXPECT_LT((eda.row(k) - run.x_filt.row(k)).norm(), 1e-9 * std::max(1.0, run.x_filt.row(k).norm())) << k;
+  }
 }
 
 TEST(SubspaceTwoStep, RecursionEqualsEngineInTriangularFormAndRatiosAreAtLeastOne) {
