@@ -161,6 +161,7 @@ void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const Matrix
 //   HG_i^T = G_i^T H_i^T (r x d),  Z_i^T = HG_i^T R_c^{-1} (so Z^T Z = HG^T M^{-1} HG, eq. (16)),
 //   Y_i^T = Z_i^T R_c^{-T} = (M^{-1} H G)_i^T,  E_i^T = HG_i^T J_i^T - G_i^T (eq. (10) minus G).
 // C, D > 0 fix c and d at compile time (the common shapes), Eigen::Dynamic takes them from c, d.
+// Yt and Et may be null (not stored).
 template <int C, int D>
 void CouplingPass1(Index c, Index d, Index r, Index nb, const double* H, const double* J, const double* rinv,
                    const double* Gt, double* hg_buf, double* Zt, double* Yt, double* Et) {
@@ -175,45 +176,82 @@ void CouplingPass1(Index c, Index d, Index r, Index nb, const double* H, const d
     const Map<const Matrix<double, C, D>> j(J + l * c * d, c, d);
     const Map<const Matrix<double, D, D>> ri(rinv + l * d * d, d, d);
     hg.noalias() = g.lazyProduct(h.transpose());
-    Map<MatRD> zt(Zt + l * r * d, r, d), yt(Yt + l * r * d, r, d);
+    Map<MatRD> zt(Zt + l * r * d, r, d);
     zt.noalias() = hg.lazyProduct(ri);
-    yt.noalias() = zt.lazyProduct(ri.transpose());
-    Map<MatRC> et(Et + l * r * c, r, c);
-    et.noalias() = hg.lazyProduct(j.transpose());
-    et -= g;
+    if (Yt) Map<MatRD>(Yt + l * r * d, r, d).noalias() = zt.lazyProduct(ri.transpose());
+    if (Et) {
+      Map<MatRC> et(Et + l * r * c, r, c);
+      et.noalias() = hg.lazyProduct(j.transpose());
+      et -= g;
+    }
+  }
+}
+
+// E_i^T = HG_i^T J_i^T - G_i^T (eq. (10) minus G) for d = 1, from z = HG_i^T (r) and G_i^T (r x c).
+inline void ScalarMeasurementEt(Index c, Index r, const double* jl, const double* z, const double* g, double* e) {
+  for (Index q = 0; q < c; ++q) {
+    const double jq = jl[q];
+    const double* gq = g + q * r;
+    double* eq = e + q * r;
+    for (Index t = 0; t < r; ++t) eq[t] = jq * z[t] - gq[t];
+  }
+}
+
+// HG_i^T = G_i^T H_i^T (r) for d = 1, accumulated over the c states.
+inline void ScalarMeasurementHG(Index c, Index r, const double* h, const double* g, double* z) {
+  for (Index t = 0; t < r; ++t) z[t] = h[0] * g[t];
+  for (Index q = 1; q < c; ++q) {
+    const double hq = h[q];
+    const double* gq = g + q * r;
+    for (Index t = 0; t < r; ++t) z[t] += hq * gq[t];
   }
 }
 
 // Pass 1 for d = 1 (one measurement per subsystem, the common case) as plain loops along r, which
 // the compiler vectorizes (src/CMakeLists.txt enables loop vectorization for this file); one call
 // per chunk, not per subsystem. Block l of Gt / Et is r x c, of Zt / Yt r x 1; h_q, J_q and
-// M^{-1/2} come from the packed 1 x c, c x 1 and 1 x 1 blocks.
+// M^{-1/2} come from the packed 1 x c, c x 1 and 1 x 1 blocks. Yt and Et may be null (not stored).
 void CouplingPass1ScalarMeasurement(Index c, Index r, Index nb, const double* H, const double* J, const double* rinv,
                                     const double* Gt, double* Zt, double* Yt, double* Et) {
   for (Index l = 0; l < nb; ++l) {
     const double* g = Gt + l * r * c;
-    const double* h = H + l * c;
-    const double* jl = J + l * c;
     double* z = Zt + l * r;
-    double* y = Yt + l * r;
-    double* e = Et + l * r * c;
-    for (Index t = 0; t < r; ++t) z[t] = h[0] * g[t];  // HG^T, accumulated over the c states
-    for (Index q = 1; q < c; ++q) {
-      const double hq = h[q];
-      const double* gq = g + q * r;
-      for (Index t = 0; t < r; ++t) z[t] += hq * gq[t];
-    }
-    for (Index q = 0; q < c; ++q) {
-      const double jq = jl[q];
-      const double* gq = g + q * r;
-      double* eq = e + q * r;
-      for (Index t = 0; t < r; ++t) eq[t] = jq * z[t] - gq[t];
-    }
+    ScalarMeasurementHG(c, r, H + l * c, g, z);
+    if (Et) ScalarMeasurementEt(c, r, J + l * c, z, g, Et + l * r * c);
     const double ri = rinv[l];
-    for (Index t = 0; t < r; ++t) {
-      z[t] *= ri;  // Z^T = HG^T M^{-1/2}
-      y[t] = ri * z[t];
+    for (Index t = 0; t < r; ++t) z[t] *= ri;  // Z^T = HG^T M^{-1/2}
+    if (Yt) {
+      double* y = Yt + l * r;
+      for (Index t = 0; t < r; ++t) y[t] = ri * z[t];
     }
+  }
+}
+
+// E^T of one chunk (r x nb c) recomputed from G^T, H and J, for pass 2 when E was not stored.
+template <int C, int D>
+void CouplingEt(Index c, Index d, Index r, Index nb, const double* H, const double* J, const double* Gt, double* hg_buf,
+                double* Et) {
+  if (d == 1) {
+    for (Index l = 0; l < nb; ++l) {
+      const double* g = Gt + l * r * c;
+      ScalarMeasurementHG(c, r, H + l * c, g, hg_buf);
+      ScalarMeasurementEt(c, r, J + l * c, hg_buf, g, Et + l * r * c);
+    }
+    return;
+  }
+  using Eigen::Map;
+  using Eigen::Matrix;
+  using MatRC = Matrix<double, Eigen::Dynamic, C>;
+  using MatRD = Matrix<double, Eigen::Dynamic, D>;
+  Map<MatRD> hg(hg_buf, r, d);
+  for (Index l = 0; l < nb; ++l) {
+    const Map<const MatRC> g(Gt + l * r * c, r, c);
+    const Map<const Matrix<double, D, C>> h(H + l * d * c, d, c);
+    const Map<const Matrix<double, C, D>> j(J + l * c * d, c, d);
+    hg.noalias() = g.lazyProduct(h.transpose());
+    Map<MatRC> et(Et + l * r * c, r, c);
+    et.noalias() = hg.lazyProduct(j.transpose());
+    et -= g;
   }
 }
 
@@ -461,81 +499,139 @@ BlockDiagonalCovarianceStep BlockDiagonalCovarianceUpdate(const CoupledStep& s, 
   return out;
 }
 
-void BlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep* result) {
-  KFX_ASSERT(result != nullptr);
-  if (&Pp == &result->P_filt) throw Error("P_prev: must not alias the output's P_filt");
-  RequireStepShapes(s, "");
+namespace {
+
+// The estimate update folded into the covariance passes (the running filter): on entry x = F x_prev
+// and nu is the innovation (length n d); on exit x = F x_prev + K nu (eq. (7)) and mu_u = C_1 Y^T nu.
+struct EstimateFold {
+  const double* nu;
+  double* x;
+  VectorXd* mu_u;
+};
+
+// Eqs. (8)-(17), the one implementation behind BlockDiagonalCovarianceUpdate (which stores the gain:
+// E^T and Y^T, O(n r) doubles) and CoupledFilter (which does not: pass 2 recomputes E^T per chunk from
+// G, H and J, and K nu is applied inside the two passes). Without the stored gain each subsystem's
+// data are streamed twice per step (G twice, 2 x 8 c r bytes) instead of about six times, which is
+// what keeps the step linear in n once the arrays leave the cache.
+void BlockDiagonalUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep& out, bool store_gain,
+                         const EstimateFold* est) {
   const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
-  RequirePackedCovariance("P_prev", Pp, c, n);
-  BlockDiagonalCovarianceStep& out = *result;  // reuses the caller's storage when the sizes agree
   out.P_filt.resize(c, n * c);
   BlockDiagonalGain& g = out.gain;
   g.J.resize(c, n * d);
-  g.Yt.resize(r, n * d);
-  g.Et.resize(r, n * c);
+  g.Yt.resize(r, store_gain ? n * d : 0);
+  g.Et.resize(r, store_gain ? n * c : 0);
+  const Index chunk = std::min(kChunk, n);
+  VectorXd jnu(est ? chunk * c : 0);
+  auto add_jnu = [&](Index i0, Index nb) {  // x_i += J_i nu_i over one chunk
+    BlockRowsTimes(g.J, d, i0, nb, est->nu + i0 * d, nb * d, jnu.data(), nb * c, 1);
+    Eigen::Map<VectorXd>(est->x + i0 * c, nb * c) += jnu.head(nb * c);
+  };
   if (r == 0) {
     SubsystemKalmanSteps(s, Pp, s.V, 0, n, nullptr, g.J, out.P_filt);
     g.C1.resize(0, 0);
+    if (est) {
+      for (Index i0 = 0; i0 < n; i0 += chunk) add_jnu(i0, std::min(chunk, n - i0));
+      est->mu_u->resize(0);
+    }
     return;
   }
-  // Pass 1, per chunk of subsystems: the per-subsystem Kalman steps (J, P = L - J H L, M^{-1/2}),
-  // then in the transposed layout HG^T, Y^T, E^T and N += Z^T Z (eq. (16)) as one SYRK per chunk.
-  // Chunks keep the r-wide temporaries in cache; E^T and Y^T are stored for the gain.
-  const Index chunk = std::min(kChunk, n);
-  MatrixXd Gt(r, chunk * c), Zt(r, chunk * d), hg(r, d);
-  VectorXd rinv(chunk * d * d);
-  MatrixXd N = MatrixXd::Zero(r, r);
-  auto pass1 = [&](auto C, auto D) {
+  MatrixXd Gt(r, chunk * c), Zt(r, chunk * d), hg(r, d), Et_chunk(r, store_gain ? 0 : chunk * c);
+  VectorXd rinv(chunk * d * d), rnu(est ? chunk * d : 0), w = VectorXd::Zero(r), v;
+  MatrixXd N = MatrixXd::Zero(r, r), FcT, Wt;
+  auto passes = [&](auto C, auto D) {
+    // Pass 1, per chunk of subsystems: the per-subsystem Kalman steps (J, P = L - J H L, M^{-1/2}),
+    // then in the transposed layout HG^T, Z^T (and Y^T, E^T when stored) and N += Z^T Z (eq. (16))
+    // as one SYRK per chunk; with the estimate, w += Y^T nu = Z^T (R_c^{-T} nu).
     for (Index i0 = 0; i0 < n; i0 += chunk) {
       const Index nb = std::min(chunk, n - i0);
       SubsystemKalmanSteps(s, Pp, s.V, i0, i0 + nb, rinv.data(), g.J, out.P_filt);
       TransposeRows(s.G, i0 * c, nb * c, Gt.data());
+      double* yt = store_gain ? g.Yt.data() + i0 * d * r : nullptr;
+      double* et = store_gain ? g.Et.data() + i0 * c * r : nullptr;
       if (d == 1) {
         CouplingPass1ScalarMeasurement(c, r, nb, s.H.data() + i0 * c, g.J.data() + i0 * c, rinv.data(), Gt.data(),
-                                       Zt.data(), g.Yt.data() + i0 * r, g.Et.data() + i0 * c * r);
+                                       Zt.data(), yt, et);
       } else {
-        CouplingPass1<decltype(C)::value, decltype(D)::value>(
-            c, d, r, nb, s.H.data() + i0 * d * c, g.J.data() + i0 * c * d, rinv.data(), Gt.data(), hg.data(), Zt.data(),
-            g.Yt.data() + i0 * d * r, g.Et.data() + i0 * c * r);
+        CouplingPass1<decltype(C)::value, decltype(D)::value>(c, d, r, nb, s.H.data() + i0 * d * c,
+                                                              g.J.data() + i0 * c * d, rinv.data(), Gt.data(),
+                                                              hg.data(), Zt.data(), yt, et);
       }
       N.selfadjointView<Eigen::Lower>().rankUpdate(Zt.leftCols(nb * d));
+      if (est) {
+        for (Index l = 0; l < nb; ++l) {
+          const Eigen::Map<const MatrixXd> ri(rinv.data() + l * d * d, d, d);
+          rnu.segment(l * d, d).noalias() = ri.transpose() * Eigen::Map<const VectorXd>(est->nu + (i0 + l) * d, d);
+        }
+        w.noalias() += Zt.leftCols(nb * d) * rnu.head(nb * d);
+      }
+    }
+    N.triangularView<Eigen::StrictlyUpper>() = N.transpose();
+    // C_1 = (U^{-1} + N)^{-1} (eq. (11)) without inverting U (U may be singular, even 0):
+    // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = Fc Fc^T, Fc = S L^{-T}, (I + S^T N S) = L L^T.
+    const MatrixXd S = PsdFactor(s.U);
+    MatrixXd T = MatrixXd::Identity(S.cols(), S.cols());
+    T.noalias() += S.transpose() * N * S;
+    Eigen::LLT<MatrixXd> tl(T);
+    if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
+    FcT = tl.matrixL().solve(S.transpose());  // k x r: Fc^T
+    g.C1.noalias() = FcT.transpose() * FcT;
+    if (est) {
+      v.noalias() = g.C1 * w;  // mu_u = C_1 Y^T nu (after eq. (17), -C_3 = C_1)
+      *est->mu_u = v;
+    }
+    // Pass 2, per chunk: W^T = Fc^T E^T (one GEMM), P_i += W_i W_i^T; with the estimate,
+    // x_i += J_i nu_i - E_i mu_u (eq. (17): K = blockdiag(J) - E C_1 Y^T).
+    const Index k = FcT.rows();
+    Wt.resize(k, chunk * c);
+    for (Index i0 = 0; i0 < n; i0 += chunk) {
+      const Index nb = std::min(chunk, n - i0);
+      const double* et = nullptr;
+      if (store_gain) {
+        et = g.Et.data() + i0 * c * r;
+      } else {
+        TransposeRows(s.G, i0 * c, nb * c, Gt.data());
+        CouplingEt<decltype(C)::value, decltype(D)::value>(
+            c, d, r, nb, s.H.data() + i0 * d * c, g.J.data() + i0 * c * d, Gt.data(), hg.data(), Et_chunk.data());
+        et = Et_chunk.data();
+      }
+      const Eigen::Map<const MatrixXd> Etc(et, r, nb * c);
+      Wt.leftCols(nb * c).noalias() = FcT * Etc;
+      double* P = out.P_filt.data() + i0 * c * c;
+      if (c <= 4) {
+        CouplingPass2Strided(c, k, nb, Wt.data(), P);
+      } else {
+        CouplingPass2<Eigen::Dynamic>(c, k, nb, Wt.data(), P);
+      }
+      if (est) {
+        add_jnu(i0, nb);
+        Eigen::Map<VectorXd>(est->x + i0 * c, nb * c).noalias() -= Etc.transpose() * v;
+      }
     }
   };
   using One = std::integral_constant<int, 1>;
   using Two = std::integral_constant<int, 2>;
   using Dyn = std::integral_constant<int, Eigen::Dynamic>;
   if (c == 2 && d == 1) {
-    pass1(Two{}, One{});
+    passes(Two{}, One{});
   } else if (c == 1 && d == 1) {
-    pass1(One{}, One{});
+    passes(One{}, One{});
   } else if (c == 2 && d == 2) {
-    pass1(Two{}, Two{});
+    passes(Two{}, Two{});
   } else {
-    pass1(Dyn{}, Dyn{});
+    passes(Dyn{}, Dyn{});
   }
-  N.triangularView<Eigen::StrictlyUpper>() = N.transpose();
-  // C_1 = (U^{-1} + N)^{-1} (eq. (11)) without inverting U (U may be singular, even 0):
-  // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = Fc Fc^T, Fc = S L^{-T}, (I + S^T N S) = L L^T.
-  const MatrixXd S = PsdFactor(s.U);
-  MatrixXd T = MatrixXd::Identity(S.cols(), S.cols());
-  T.noalias() += S.transpose() * N * S;
-  Eigen::LLT<MatrixXd> tl(T);
-  if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
-  const MatrixXd FcT = tl.matrixL().solve(S.transpose());  // k x r: Fc^T
-  g.C1.noalias() = FcT.transpose() * FcT;
-  // Pass 2, per chunk: W^T = Fc^T E^T (one GEMM), P_i += W_i W_i^T.
-  const Index k = FcT.rows();
-  MatrixXd Wt(k, chunk * c);
-  for (Index i0 = 0; i0 < n; i0 += chunk) {
-    const Index nb = std::min(chunk, n - i0);
-    Wt.leftCols(nb * c).noalias() = FcT * g.Et.middleCols(i0 * c, nb * c);
-    double* P = out.P_filt.data() + i0 * c * c;
-    if (c <= 4) {
-      CouplingPass2Strided(c, k, nb, Wt.data(), P);
-    } else {
-      CouplingPass2<Eigen::Dynamic>(c, k, nb, Wt.data(), P);
-    }
-  }
+}
+
+}  // namespace
+
+void BlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep* result) {
+  KFX_ASSERT(result != nullptr);
+  if (&Pp == &result->P_filt) throw Error("P_prev: must not alias the output's P_filt");
+  RequireStepShapes(s, "");
+  RequirePackedCovariance("P_prev", Pp, s.c(), s.n());
+  BlockDiagonalUpdate(s, Pp, *result, /*store_gain=*/true, nullptr);  // reuses the caller's storage
 }
 
 DenseGainCovarianceStep NaiveBlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp) {
@@ -672,23 +768,34 @@ CoupledFilter::CoupledFilter(CoupledFilterKind kind, VectorXd x0, const MatrixXd
 void CoupledFilter::Step(const CoupledStep& s, const VectorXd& y) {
   RequireVector("y", y, s.n() * s.d());
   RequireFinite("y", y);
-  RequireVector("x", x_, s.n() * s.c());
-  StepWithInnovation(s, y - CoupledPredictMeasurement(s, x_));
+  CheckStep(s);
+  VectorXd x_pred = CoupledPropagate(s, x_);
+  const VectorXd nu = y - BlockDiagonalApply(s.H, s.c(), x_pred);
+  Update(s, nu, std::move(x_pred));
 }
 
-void CoupledFilter::StepWithInnovation(const CoupledStep& s, const VectorXd& nu) {
+void CoupledFilter::CheckStep(const CoupledStep& s) const {
   RequireStepShapes(s, "");
   if (s.c() != c_ || s.n() * s.c() != x_.size()) {
     throw Error("step: expected " + std::to_string(x_.size() / c_) + " subsystems of " + std::to_string(c_) +
                 " states, got " + std::to_string(s.n()) + " of " + std::to_string(s.c()));
   }
+}
+
+void CoupledFilter::StepWithInnovation(const CoupledStep& s, const VectorXd& nu) {
+  CheckStep(s);
   RequireVector("innovation", nu, s.n() * s.d());
-  VectorXd x = CoupledPropagate(s, x_);
+  Update(s, nu, CoupledPropagate(s, x_));
+}
+
+void CoupledFilter::Update(const CoupledStep& s, const VectorXd& nu, VectorXd x) {
   switch (kind_) {
     case CoupledFilterKind::kBlockDiagonal: {
-      BlockDiagonalCovarianceUpdate(s, P_, &work_);  // the previous step's buffers are reused
-      x += work_.gain.Apply(nu);
-      mu_u_ = work_.gain.CouplingMean(nu);
+      // The covariance passes apply the gain as they go, without storing E and Y (work_'s buffers
+      // are reused from step to step).
+      RequirePackedCovariance("P", P_, s.c(), s.n());
+      const EstimateFold fold{nu.data(), x.data(), &mu_u_};
+      BlockDiagonalUpdate(s, P_, work_, /*store_gain=*/false, &fold);
       sigma_u_ = work_.gain.C1;
       P_.swap(work_.P_filt);
       break;

@@ -165,7 +165,7 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
   int small_changes = 0;
   int k = 0;
   const bool want_P = options.store_covariances || options.rde_check;
-  MatrixXd AQ, St_prev;
+  MatrixXd AQ, St_prev, QS, QS_prev;
   for (k = 1; k <= T_max; ++k) {
     // S_k (15), and the anchor A Q_{k-1} (N x n). P~_k = A P_{k-1} A^T + Q (13) with
     // P_{k-1} = S_{k-1} - Q_{k-1} S~_{k-1} Q_{k-1}^T is S_k - (A Q_{k-1}) S~_{k-1} (A Q_{k-1})^T: only
@@ -202,7 +202,6 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     Symmetrize(St);
     const int rank = SymmetricPseudoInverse(St, options.pinv_tolerance, &St_pinv);
     out.pinv_rank.push_back(rank);
-    const MatrixXd Q_prev = Q;
     MatrixXd Resid = V;
     Resid.noalias() -= Pi_adj * St;  // (I - Pi_s) V_k, as Pi V_k = S~_k
     Q = Pi_adj;
@@ -245,9 +244,12 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     }
     if (options.store_covariances) out.P.push_back(P);
 
-    // Convergence of the gain and the output map.
+    // Convergence of the gain and of the output map on the range of S~_k: Q_k S~_k (Remark 2.2: x~_k
+    // lies in R(S~_k), Q_k is not determined on its complement, and there the pseudoinverse only
+    // amplifies round-off). Q_k S~_k = Pi^* S~_k + (I - Pi_s) V_k S~_k^+ S~_k is V_k on R(S~_k).
+    QS.noalias() = Q * St;
     if (k > 1) {
-      out.last_change = std::max(RelativeChange(K, K_prev), RelativeChange(Q, Q_prev));
+      out.last_change = std::max(RelativeChange(K, K_prev), RelativeChange(QS, QS_prev));
       small_changes = out.last_change <= options.tolerance ? small_changes + 1 : 0;
       if (small_changes >= options.patience && !out.converged) {
         out.converged = true;
@@ -255,6 +257,7 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
       }
     }
     K_prev = K;
+    QS_prev.swap(QS);
     if (options.progress) options.progress(k, T_max);
     if (options.steps < 0 && out.converged) break;
   }

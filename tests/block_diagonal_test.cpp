@@ -54,10 +54,13 @@ TEST_P(FastVsNaive, CovarianceGainAndEstimateAgree) {
   TestRng rng(100 + dm.n * 7 + dm.c * 3 + dm.d + dm.r * 11);
   MatrixXd P_fast = PackedSpd(rng, dm.c, dm.n, 0.1), P_naive = P_fast;
   VectorXd x_fast = rng.Gaussian(dm.n * dm.c, 1), x_naive = x_fast;
+  // The running filter folds K nu into the covariance passes without storing E and Y: a third path.
+  CoupledFilter folded(CoupledFilterKind::kBlockDiagonal, x_fast, P_fast);
   for (int k = 1; k <= 6; ++k) {
     const CoupledStep s = RandomStep(rng, dm.n, dm.c, dm.d, dm.r);
     const VectorXd y = rng.Gaussian(dm.n * dm.d, 1);
     const BlockDiagonalCovarianceStep fast = BlockDiagonalCovarianceUpdate(s, P_fast);
+    folded.Step(s, y);
     const DenseGainCovarianceStep naive = NaiveBlockDiagonalCovarianceUpdate(s, P_naive);
     EXPECT_LE(RelativeDifference(fast.P_filt, naive.P_filt), 1e-10) << "k = " << k;
     EXPECT_LE(RelativeDifference(fast.gain.ToDense(), naive.K), 1e-10) << "k = " << k;
@@ -66,6 +69,12 @@ TEST_P(FastVsNaive, CovarianceGainAndEstimateAgree) {
     x_fast = CoupledPropagate(s, x_fast) + fast.gain.Apply(nu_f);
     x_naive = CoupledPropagate(s, x_naive) + naive.K * nu_n;
     EXPECT_LE(RelativeDifference(x_fast, x_naive), 1e-10) << "k = " << k;
+    EXPECT_LE(RelativeDifference(folded.x(), x_fast), 1e-12) << "k = " << k;
+    EXPECT_LE(RelativeDifference(folded.P(), fast.P_filt), 1e-12) << "k = " << k;
+    if (dm.r > 0) {
+      EXPECT_LE(RelativeDifference(folded.coupling_mean(), fast.gain.CouplingMean(nu_f)), 1e-12) << "k = " << k;
+      EXPECT_LE(RelativeDifference(folded.coupling_cov(), fast.gain.C1), 1e-12) << "k = " << k;
+    }
     P_fast = fast.P_filt;
     P_naive = naive.P_filt;
   }
@@ -74,7 +83,7 @@ TEST_P(FastVsNaive, CovarianceGainAndEstimateAgree) {
 INSTANTIATE_TEST_SUITE_P(Sizes, FastVsNaive,
                          ::testing::Values(Dims{1, 1, 1, 1}, Dims{1, 2, 3, 4}, Dims{5, 2, 1, 3}, Dims{4, 3, 2, 1},
                                            Dims{7, 4, 2, 2}, Dims{3, 1, 1, 5}, Dims{300, 1, 1, 2}, Dims{260, 2, 1, 20},
-                                           Dims{6, 3, 1, 4}, Dims{5, 6, 1, 2}, Dims{2, 9, 9, 3}));
+                                           Dims{6, 3, 1, 4}, Dims{5, 6, 1, 2}, Dims{2, 9, 9, 3}, Dims{270, 1, 2, 2}));
 
 // The filter class over a time-varying system gives the same estimates as the naive kind.
 TEST(CoupledFilter, FastAndNaiveKindsAgreeOverARun) {

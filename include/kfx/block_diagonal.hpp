@@ -219,6 +219,10 @@ class CoupledFilter {
   const Eigen::MatrixXd& coupling_cov() const { return sigma_u_; }
 
  private:
+  // x_k = x_pred + K_k nu with x_pred = F_k x_{k-1}, and the covariance step.
+  void Update(const CoupledStep& s, const Eigen::VectorXd& nu, Eigen::VectorXd x_pred);
+  void CheckStep(const CoupledStep& s) const;  // shapes, and the same n and c as the filter
+
   CoupledFilterKind kind_;
   Eigen::Index c_;
   Eigen::VectorXd x_;
