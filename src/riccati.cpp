@@ -826,12 +826,16 @@ Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A
   if (!(scale > 0.0)) {
     throw Error("A: SB03MD returned scale 0: the solution overflows (spectral radius " + FormatDouble(rho, 17) + ")");
   }
-  MatrixXd res = x - Q;
-  MatrixXd Ax(n, n);
-  Ax.noalias() = A * x;
-  res.noalias() -= Ax * A.transpose();
-  sum.relative_residual = res.norm() / std::max(x.norm(), kTiny);
   sum.ok = x.allFinite();
+  // The residual costs two GEMMs (4 n^3 flops, ~10% of SB03MD): only when the caller asks for it.
+  if (summary && !sum.ok) sum.relative_residual = std::numeric_limits<double>::quiet_NaN();
+  if (summary && sum.ok) {
+    MatrixXd res = x - Q;
+    MatrixXd Ax(n, n);
+    Ax.noalias() = A * x;
+    res.noalias() -= Ax * A.transpose();
+    sum.relative_residual = res.norm() / std::max(x.norm(), kTiny);
+  }
   sum.message = "SB03MD (Schur method)";
   if (scale != 1.0) sum.message += "; solution divided by SB03MD's scale " + FormatDouble(scale, 17);
   if (!sum.ok) sum.message += "; the solution has non-finite entries";

@@ -94,7 +94,8 @@ double FilterDareResidual(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eige
 struct LyapunovSummary {
   bool ok = false;
   std::string message;
-  /// |X - A X A^T - Q|_F / max(|X|_F, tiny)
+  /// |X - A X A^T - Q|_F / max(|X|_F, tiny) (computed only when a summary is requested; NaN if X is
+  /// not finite)
   double relative_residual = 0.0;
   double spectral_radius = 0.0;  ///< rho(A)
 };
