@@ -9,12 +9,11 @@
 //   kfx_peers lyap DIR N REPS            SolveDiscreteLyapunov vs SB03MD on DIR/lyap_N_{A,Q}.npy
 //   kfx_peers kf DIR N REPS COV_STEPS TOL  RunFilter (1000 steps) on DIR/kf_N_*.npy, and the
 //                                        covariance recursion alone for COV_STEPS steps
-#include <sys/resource.h>
-
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
+#include <fstream>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -34,10 +33,15 @@ double CpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+// Peak resident set of this process image: VmHWM of /proc/self/status (getrusage's ru_maxrss would
+// include the high-water mark of the Python parent this process was forked from).
 double PeakRssMb() {
-  rusage ru{};
-  getrusage(RUSAGE_SELF, &ru);
-  return static_cast<double>(ru.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
+  }
+  return -1.0;
 }
 
 std::string JsonList(const std::vector<double>& v) {
@@ -166,11 +170,13 @@ int Lyap(const std::string& dir, int n, int reps) {
 
 int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
   const std::string p = "kf_" + std::to_string(n) + "_";
-  const MatrixXd A = Load(dir, p + "A"), C = Load(dir, p + "C"), Q = Load(dir, p + "Q"), R = Load(dir, p + "R");
-  const Eigen::VectorXd m0 = Load(dir, p + "m0");
-  const MatrixXd P0 = Load(dir, p + "P0");
+  // Loaded straight into the model (no second copy of A, Q, P0 in this process).
+  const kfx::Model model(kfx::MakeStep(Load(dir, p + "A"), Load(dir, p + "C"), Load(dir, p + "Q"), Load(dir, p + "R")),
+                         Load(dir, p + "m0"), Load(dir, p + "P0"));
   const kfx::TimeSeries Y = Load(dir, p + "Y");
-  const kfx::Model model(kfx::MakeStep(A, C, Q, R), m0, P0);
+  const MatrixXd& C = model.step(1)->C;
+  const Eigen::VectorXd& m0 = model.m0();
+  const MatrixXd& P0 = model.P0();
   kfx::FilterRunOptions options;
   options.store_covariances = false;
   options.steady_state_tolerance = tol;
@@ -204,7 +210,8 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
   kfx::WriteNpyMatrix(dir + "/" + p + "Pdiag_kfx.npy", last);
   std::cout << "{\"kfx\": " << JsonList(t_run) << ", \"cov_step\": " << JsonList(t_cov)
             << ", \"cov_step_flops\": " << Num(flops) << ", \"peak_rss_mb\": " << Num(rss)
-            << ", \"loglik\": " << Num(run.log_likelihood) << ", \"steps\": " << Y.rows() << "}\n";
+            << ", \"loglik\": " << Num(run.log_likelihood) << ", \"steps\": " << Y.rows()
+            << ", \"steady_state_steps\": " << run.steady_state_steps << "}\n";
   return 0;
 }
 
