@@ -16,6 +16,8 @@ DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapac
                 libcli11-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev \
                 python3-matplotlib
 KFX := $(BUILD)/bin/kfx
+# make bench-peers only (issue 9; not needed by make test or CI):
+PEERS_PACKAGES := python3-scipy octave octave-control
 
 .PHONY: demo test deps build test-asan bench format-check install clean
 
@@ -45,6 +47,15 @@ bench: deps
 	@cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DKFX_BUILD_BENCHMARKS=ON -DKFX_BUILD_TESTS=OFF > $(BENCH_BUILD).configure.log 2>&1 || (cat $(BENCH_BUILD).configure.log; exit 1)
 	cmake --build $(BENCH_BUILD) -j$(JOBS)
 	bash bench/run.sh $(BENCH_BUILD)
+
+# kfx vs SLICOT / SciPy / Octave / numpy (bench/peers/peers.py): one run, one BLAS thread, process
+# CPU time; writes $(BENCH_BUILD)/peers/peers.{json,md}. QUICK=1: small sizes only. Not part of make test.
+.PHONY: bench-peers
+bench-peers:
+	@bash tools/install-deps.sh $(DEB_PACKAGES) $(PEERS_PACKAGES)
+	@cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DKFX_BUILD_BENCHMARKS=ON -DKFX_BUILD_TESTS=OFF > $(BENCH_BUILD).configure.log 2>&1 || (cat $(BENCH_BUILD).configure.log; exit 1)
+	cmake --build $(BENCH_BUILD) -j$(JOBS) --target kfx_peers
+	/usr/bin/python3 bench/peers/peers.py --driver $(BENCH_BUILD)/bench/kfx_peers --out $(BENCH_BUILD)/peers $(if $(QUICK),--quick,)
 
 format-check:
 	@clang-format --dry-run -Werror $$(git ls-files '*.cpp' '*.hpp')

@@ -784,7 +784,53 @@ double FilterDareResidual(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eige
 }
 
 // ------------------------------------------------------------------------------------------------
-// Discrete Lyapunov (Stein) equation: SolveSteinSb03md above (SLICOT SB03MD, Barraud's method).
+// Discrete Lyapunov (Stein) equation: SolveSteinSb03md above (SLICOT SB03MD, Barraud's method), or,
+// when no summary is requested and A is stable enough, the squared Smith iteration (Smith 1968):
+//   X_0 = Q, A_0 = A;  X_{j+1} = X_j + A_j X_j A_j^T,  A_{j+1} = A_j^2,  so X_j = sum_{k < 2^j} A^k Q A^kT,
+// 6 n^3 GEMM flops a step. Stops when the increment is below eps |X|_F; gives up (returns false)
+// when A_j does not contract fast enough to converge within kSmithMaxSteps steps (rho(A) above about
+// 0.998, or transient growth), and the result is accepted only if its residual is <= 1e-13
+// (4 n^3 flops more). About 60 n^3 GEMM flops at rho = 0.95, against SB03MD's ~30 n^3 flops of
+// mostly BLAS-2 Schur reduction: several times faster from n ~ 50 on.
+constexpr int kSmithMaxSteps = 14;
+
+bool SolveSteinSmith(const ConstRef& A, const ConstRef& Q, MatrixXd* X_out) {
+  const Index n = A.rows();
+  const double eps = std::numeric_limits<double>::epsilon();
+  MatrixXd Aj = A, X = 0.5 * (Q + Q.transpose()), AX(n, n), T(n, n), A2(n, n);
+  double log_a_prev = 0.0;
+  for (int j = 0; j < kSmithMaxSteps; ++j) {
+    AX.noalias() = Aj * X;
+    T.noalias() = AX * Aj.transpose();
+    X += T;
+    if (!X.allFinite()) return false;
+    const double x_norm = X.norm();
+    if (T.norm() <= eps * x_norm) break;
+    if (j + 1 == kSmithMaxSteps) return false;
+    A2.noalias() = Aj * Aj;
+    Aj.swap(A2);
+    // ln |A_{2^j}| ~ ln c + 2^j ln rho: predict the step at which |A_j|^2 <= eps and give up early
+    // if it lies beyond kSmithMaxSteps (or A_j stops contracting).
+    const double log_a = std::log(Aj.norm());
+    if (std::isinf(log_a) && log_a < 0.0) break;  // A_j = 0 (nilpotent A): X is exact
+    if (!std::isfinite(log_a)) return false;
+    if (j >= 2) {
+      const double log_rho = (log_a - log_a_prev) / std::ldexp(1.0, j);
+      if (!(log_rho < 0.0)) return false;
+      const double log_c = log_a - std::ldexp(1.0, j + 1) * log_rho;
+      const double needed = std::log2((0.5 * std::log(eps) - log_c) / log_rho);
+      if (needed > kSmithMaxSteps + 1) return false;
+    }
+    log_a_prev = log_a;
+  }
+  SymmetrizeInPlace(X);
+  MatrixXd res = X - Q;
+  AX.noalias() = A * X;
+  res.noalias() -= AX * A.transpose();
+  if (!(res.norm() <= 1e-13 * X.norm())) return false;
+  X_out->swap(X);
+  return true;
+}
 
 Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A,
                                       const Eigen::Ref<const Eigen::MatrixXd>& Q, LyapunovSummary* summary) {
@@ -802,6 +848,7 @@ Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A
     return MatrixXd(0, 0);
   }
   MatrixXd x;
+  if (!summary && SolveSteinSmith(A, Q, &x)) return x;
   double scale = 1.0, rho = 0.0;
   Eigen::VectorXcd eig;
   const int info = SolveSteinSb03md(A, Q, &x, &scale, &rho, &eig);
@@ -826,12 +873,16 @@ Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A
   if (!(scale > 0.0)) {
     throw Error("A: SB03MD returned scale 0: the solution overflows (spectral radius " + FormatDouble(rho, 17) + ")");
   }
-  MatrixXd res = x - Q;
-  MatrixXd Ax(n, n);
-  Ax.noalias() = A * x;
-  res.noalias() -= Ax * A.transpose();
-  sum.relative_residual = res.norm() / std::max(x.norm(), kTiny);
   sum.ok = x.allFinite();
+  // The residual costs two GEMMs (4 n^3 flops, ~10% of SB03MD): only when the caller asks for it.
+  if (summary && !sum.ok) sum.relative_residual = std::numeric_limits<double>::quiet_NaN();
+  if (summary && sum.ok) {
+    MatrixXd res = x - Q;
+    MatrixXd Ax(n, n);
+    Ax.noalias() = A * x;
+    res.noalias() -= Ax * A.transpose();
+    sum.relative_residual = res.norm() / std::max(x.norm(), kTiny);
+  }
   sum.message = "SB03MD (Schur method)";
   if (scale != 1.0) sum.message += "; solution divided by SB03MD's scale " + FormatDouble(scale, 17);
   if (!sum.ok) sum.message += "; the solution has non-finite entries";

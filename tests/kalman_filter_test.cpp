@@ -132,6 +132,67 @@ TEST(KalmanFilter, ClassMatchesFunctionsAndRun) {
   EXPECT_EQ(kf.k(), 0);
 }
 
+// Above kSymmetricProductMin, Predict and the Joseph update use DTRMM/DSYR2K: against the textbook
+// formulas, (I - K C) P (I - K C)^T + K R K^T formed explicitly.
+TEST(KalmanFilter, SymmetricBlasProductsMatchTextbookFormulas) {
+  kfx::testing::TestRng rng(29);
+  for (const Eigen::Index n : {31, 32, 60}) {
+    const Eigen::Index m = 7;
+    const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+    const Estimate e{rng.Gaussian(n, 1), rng.Spd(n)};
+    const Estimate pred = Predict(e, s);
+    const MatrixXd P_pred = s.A * e.P * s.A.transpose() + s.Q;
+    EXPECT_MATRICES_NEAR(pred.P, P_pred, 1e-13 * P_pred.norm());
+    EXPECT_EQ((pred.P - pred.P.transpose()).norm(), 0.0);
+    const VectorXd y = rng.Gaussian(m, 1);
+    const UpdateResult u = Update(pred, s, y);
+    const MatrixXd S = s.C * P_pred * s.C.transpose() + s.R;
+    const MatrixXd K = P_pred * s.C.transpose() * S.inverse();
+    const MatrixXd IKC = MatrixXd::Identity(n, n) - K * s.C;
+    const MatrixXd P_filt = IKC * P_pred * IKC.transpose() + K * s.R * K.transpose();
+    EXPECT_MATRICES_NEAR(u.gain, K, 1e-11 * K.norm());
+    EXPECT_MATRICES_NEAR(u.estimate.P, P_filt, 1e-12 * P_filt.norm());
+    EXPECT_EQ((u.estimate.P - u.estimate.P.transpose()).norm(), 0.0);
+    // The standard form P - K C P (Eigen products, unchanged) agrees at this conditioning.
+    KalmanFilterOptions standard;
+    standard.update_form = CovarianceUpdateForm::kStandard;
+    EXPECT_MATRICES_NEAR(Update(pred, s, y, standard).estimate.P, P_filt, 1e-11 * P_filt.norm());
+  }
+}
+
+// The steady-state fast path against the full recursion: same estimates, log-likelihood and
+// covariances to the tolerance's order; a missing measurement resumes the full recursion.
+TEST(KalmanFilter, SteadyStateFastPathMatchesFullRecursion) {
+  kfx::testing::TestRng rng(17);
+  const Eigen::Index n = 5, m = 2;
+  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  Model model(s, rng.Gaussian(n, 1), MatrixXd::Identity(n, n));
+  TimeSeries y = Simulate(model, 300, 4).y;
+  y(200, 1) = kNaN;
+  const FilterRun full = RunFilter(model, y);
+  FilterRunOptions fast_options;
+  fast_options.steady_state_tolerance = 1e-13;
+  const FilterRun fast = RunFilter(model, y, fast_options);
+  EXPECT_EQ(full.steady_state_steps, 0);
+  // Frozen before step 200, resumed there, frozen again after.
+  EXPECT_GT(fast.steady_state_steps, 150);
+  EXPECT_LT(fast.steady_state_steps, 299);
+  EXPECT_EQ(fast.num_observed[200], 1);
+  const double xs = full.x_filt.norm();
+  EXPECT_LT((fast.x_filt - full.x_filt).norm() / xs, 1e-11);
+  EXPECT_LT((fast.x_pred - full.x_pred).norm() / xs, 1e-11);
+  EXPECT_TRUE((fast.innovations.array().isNaN() == full.innovations.array().isNaN()).all());
+  EXPECT_NEAR(fast.log_likelihood, full.log_likelihood, 1e-9 * std::abs(full.log_likelihood));
+  for (int k = 0; k <= 300; ++k) {
+    const auto i = static_cast<size_t>(k);
+    EXPECT_LT((fast.P_filt[i] - full.P_filt[i]).norm(), 1e-11 * full.P_filt[i].norm()) << "k = " << k;
+    EXPECT_LT((fast.P_pred[i] - full.P_pred[i]).norm(), 1e-11 * full.P_pred[i].norm()) << "k = " << k;
+  }
+  EXPECT_LT((fast.P_filt_diag - full.P_filt_diag).norm(), 1e-11 * full.P_filt_diag.norm());
+  fast_options.steady_state_tolerance = -1.0;
+  EXPECT_THROW(RunFilter(model, y, fast_options), Error);
+}
+
 // Stacked Gaussian: Y = G xi + v with xi = (x0, w_1..w_T); the log-density of the observed entries.
 double BatchLogLikelihood(const ModelStep& s, const VectorXd& m0, const MatrixXd& P0, const TimeSeries& y) {
   const Eigen::Index n = s.A.rows(), m = s.C.rows();

@@ -81,6 +81,25 @@ TEST(LyapunovRandom, StableSystemsHaveSmallResidualAndPsdSolution) {
   }
 }
 
+// Without a summary a stable A goes to the squared Smith iteration (SB03MD beyond rho ~ 0.998 or on
+// a residual above 1e-13); with one, always SB03MD: the two must agree.
+TEST(LyapunovRandom, SmithPathAgreesWithSb03md) {
+  TestRng rng(24);
+  for (int n : {3, 40, 120}) {
+    for (double rho : {0.3, 0.95, 0.99, 0.999, 1.2}) {
+      const MatrixXd A = rng.WithSpectralRadius(n, rho);
+      const MatrixXd Q = rng.Spd(n);
+      LyapunovSummary summary;
+      const MatrixXd X_schur = SolveDiscreteLyapunov(A, Q, &summary);
+      const MatrixXd X = SolveDiscreteLyapunov(A, Q);
+      EXPECT_LE(RelativeDifference(X, X_schur), 1e-11) << "n = " << n << ", rho = " << rho;
+      EXPECT_EQ(X, X.transpose());
+      const double residual = (X - A * X * A.transpose() - Q).norm() / X.norm();
+      EXPECT_LE(residual, 1e-13) << "n = " << n << ", rho = " << rho;
+    }
+  }
+}
+
 TEST(LyapunovRandom, PsdRankDeficientNoiseGivesPsdSolution) {
   TestRng rng(23);
   const int n = 30;

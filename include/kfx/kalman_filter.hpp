@@ -87,6 +87,11 @@ struct FilterRunOptions {
   /// Keep every P_{k|k-1}, P_{k|k} (needed by the smoother; n^2 (2T + 2) doubles).
   bool store_covariances = true;
   ProgressCallback progress;
+  /// Steady-state fast path (time-invariant models only; 0 = off, the default): once a full step
+  /// changes P_{k|k} by at most this, relative in the Frobenius norm, the gain, S_k and the
+  /// covariances are frozen and later steps update only the mean, O(n^2 + n m) instead of O(n^3).
+  /// A step with a missing measurement ends the freeze (the full recursion resumes). Range [0, 1e-2].
+  double steady_state_tolerance = 0.0;
 };
 
 /// A whole-sequence filter run on measurements y (T x m, row k-1 = y_k, NaN = missing).
@@ -101,6 +106,7 @@ struct FilterRun {
   Eigen::VectorXd log_likelihood_terms;  ///< length T
   double log_likelihood = 0.0;           ///< sum of the terms
   std::vector<int> num_observed;         ///< length T
+  int steady_state_steps = 0;            ///< steps done on the frozen gain (steady_state_tolerance)
 };
 
 /// Runs the filter over y. @throws kfx::Error on dimension mismatch / horizon exceeded.

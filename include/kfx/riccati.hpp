@@ -94,14 +94,17 @@ double FilterDareResidual(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eige
 struct LyapunovSummary {
   bool ok = false;
   std::string message;
-  /// |X - A X A^T - Q|_F / max(|X|_F, tiny)
+  /// |X - A X A^T - Q|_F / max(|X|_F, tiny) (computed only when a summary is requested; NaN if X is
+  /// not finite)
   double relative_residual = 0.0;
   double spectral_radius = 0.0;  ///< rho(A)
 };
 
 /// Discrete Lyapunov (Stein) equation X = A X A^T + Q, Schur-based (Bartels-Stewart / Barraud via
-/// SLICOT SB03MD). Solvable when no two eigenvalues of A have product 1; for stable A (rho < 1) X is
-/// the stationary covariance of x_k = A x_{k-1} + w_k and PSD when Q is.
+/// SLICOT SB03MD); without a summary, a stable A (rho below about 0.998) is solved by the squared
+/// Smith iteration instead (doubling, GEMMs only; accepted if its residual is <= 1e-13, else SB03MD). Solvable when no
+/// two eigenvalues of A have product 1; for stable A (rho < 1) X is the stationary covariance of x_k = A x_{k-1} + w_k
+/// and PSD when Q is.
 /// @param A n x n, @param Q n x n symmetric.
 /// @throws kfx::Error on invalid input, or if the equation is singular (eigenvalue pair with
 ///         lambda_i lambda_j = 1), with the spectral radius in the message.

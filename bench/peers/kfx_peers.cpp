@@ -1,0 +1,234 @@
+// The C++ side of `make bench-peers` (bench/peers/peers.py drives it): times kfx and SLICOT
+// (SB02OD, SB03MD, called through their Fortran interfaces exactly as a C++ user would) on the
+// seeded systems that peers.py wrote as .npy files, writes the solutions back as .npy for the
+// checks in peers.py, and prints one JSON object on stdout. Times are process CPU seconds
+// (CLOCK_PROCESS_CPUTIME_ID), one BLAS thread (the caller sets OPENBLAS_NUM_THREADS=1).
+//
+//   kfx_peers dgemm REPS                 single-thread DGEMM rate (n = 1000, Eigen -> OpenBLAS)
+//   kfx_peers dare DIR N REPS            SolveFilterDare vs SB02OD on DIR/dare_N_{A,C,Q,R}.npy
+//   kfx_peers lyap DIR N REPS            SolveDiscreteLyapunov vs SB03MD on DIR/lyap_N_{A,Q}.npy
+//   kfx_peers kf DIR N REPS COV_STEPS TOL  RunFilter (1000 steps) on DIR/kf_N_*.npy, and the
+//                                        covariance recursion alone for COV_STEPS steps
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "../../src/lapack_fortran.hpp"
+#include "kfx/io.hpp"
+#include "kfx/kalman_filter.hpp"
+#include "kfx/riccati.hpp"
+
+namespace {
+
+using Eigen::MatrixXd;
+
+double CpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+// Peak resident set of this process image: VmHWM of /proc/self/status (getrusage's ru_maxrss would
+// include the high-water mark of the Python parent this process was forked from).
+double PeakRssMb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
+  }
+  return -1.0;
+}
+
+std::string JsonList(const std::vector<double>& v) {
+  std::string s = "[";
+  char buf[64];
+  for (size_t i = 0; i < v.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "%s%.6g", i ? ", " : "", v[i]);
+    s += buf;
+  }
+  return s + "]";
+}
+
+std::string Num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+MatrixXd Load(const std::string& dir, const std::string& name) { return kfx::ReadNpyMatrix(dir + "/" + name + ".npy"); }
+
+// SLICOT SB02OD on the filter DARE (the dual control DARE with A^T, C^T), as kfx's kSchur calls it
+// but without kfx's post-processing: the bare peer. Returns info.
+int Sb02od(const MatrixXd& A, const MatrixXd& C, const MatrixXd& Q, const MatrixXd& R, MatrixXd* X) {
+  const int n = static_cast<int>(A.rows()), m = static_cast<int>(C.rows()), p = 0;
+  const int ld_n = std::max(1, n), ld_m = std::max(1, m), ld_st = std::max(1, 2 * n + m), ld_u = std::max(1, 2 * n);
+  const int ld_l = 1;
+  MatrixXd a = A.transpose(), b = C.transpose(), q = Q, r = R;
+  std::vector<double> l(1, 0.0);
+  X->resize(n, n);
+  const size_t two_n = static_cast<size_t>(std::max(1, 2 * n));
+  std::vector<double> alfar(two_n), alfai(two_n), beta(two_n);
+  std::vector<double> s(static_cast<size_t>(ld_st) * static_cast<size_t>(ld_st));
+  std::vector<double> t(static_cast<size_t>(ld_st) * two_n), u(static_cast<size_t>(ld_u) * two_n);
+  std::vector<int> iwork(static_cast<size_t>(std::max({1, m, 2 * n})));
+  std::vector<kfx_fortran_logical> bwork(two_n);
+  const int ldwork = std::max({14 * n + 23, 16 * n, 2 * n + m, 3 * m}) + 64 * (2 * n + m);
+  std::vector<double> dwork(static_cast<size_t>(ldwork));
+  double rcond = 0.0;
+  const double tol = 0.0;
+  int info = 0;
+  sb02od_("D", "B", "N", "U", "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n, r.data(), &ld_m,
+          l.data(), &ld_l, &rcond, X->data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(), &ld_st,
+          t.data(), &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info, 1, 1, 1, 1,
+          1, 1);
+  return info;
+}
+
+// SLICOT SB03MD on X = A X A^T + Q (TRANA = 'T', C = -Q; X / scale), the bare peer.
+int Sb03md(const MatrixXd& A, const MatrixXd& Q, MatrixXd* X) {
+  const int n = static_cast<int>(A.rows()), ld = std::max(1, n);
+  MatrixXd a = A, u(n, n);
+  *X = -Q;
+  std::vector<double> wr(static_cast<size_t>(n)), wi(static_cast<size_t>(n));
+  std::vector<int> iwork(1);
+  const int ldwork = std::max(2 * n * n + 3 * n, 1) + 64 * n;
+  std::vector<double> dwork(static_cast<size_t>(ldwork));
+  double scale = 1.0, sep = 0.0, ferr = 0.0;
+  int info = 0;
+  sb03md_("D", "X", "N", "T", &n, a.data(), &ld, u.data(), &ld, X->data(), &ld, &scale, &sep, &ferr, wr.data(),
+          wi.data(), iwork.data(), dwork.data(), &ldwork, &info, 1, 1, 1, 1);
+  if (info == 0 && scale != 1.0) *X /= scale;
+  return info;
+}
+
+int Dgemm(int reps) {
+  const Eigen::Index n = 1000;
+  MatrixXd a = MatrixXd::Random(n, n), b = MatrixXd::Random(n, n), c(n, n);
+  double best = 1e300;
+  for (int i = 0; i < reps; ++i) {
+    const double t0 = CpuSeconds();
+    c.noalias() = a * b;
+    best = std::min(best, CpuSeconds() - t0);
+  }
+  std::cout << "{\"n\": 1000, \"best_seconds\": " << Num(best) << ", \"gflops\": " << Num(2e-9 * 1e9 / best)
+            << ", \"check\": " << Num(c(0, 0) - a.row(0).dot(b.col(0))) << "}\n";
+  return 0;
+}
+
+int Dare(const std::string& dir, int n, int reps) {
+  const std::string p = "dare_" + std::to_string(n) + "_";
+  const MatrixXd A = Load(dir, p + "A"), C = Load(dir, p + "C"), Q = Load(dir, p + "Q"), R = Load(dir, p + "R");
+  std::vector<double> t_kfx, t_slicot, ratio;
+  kfx::DareSolution sol;
+  MatrixXd X;
+  int info = 0;
+  for (int i = 0; i < reps; ++i) {  // interleaved, so that load changes hit both
+    double t0 = CpuSeconds();
+    sol = kfx::SolveFilterDare(A, C, Q, R);
+    t_kfx.push_back(CpuSeconds() - t0);
+    t0 = CpuSeconds();
+    info = Sb02od(A, C, Q, R, &X);
+    t_slicot.push_back(CpuSeconds() - t0);
+    ratio.push_back(t_slicot.back() / t_kfx.back());
+  }
+  kfx::WriteNpyMatrix(dir + "/" + p + "X_kfx.npy", sol.P_pred);
+  kfx::WriteNpyMatrix(dir + "/" + p + "X_sb02od.npy", X);
+  std::cout << "{\"kfx\": " << JsonList(t_kfx) << ", \"sb02od\": " << JsonList(t_slicot)
+            << ", \"paired_ratio\": " << JsonList(ratio) << ", \"sb02od_info\": " << info << ", \"kfx_status\": \""
+            << kfx::ToString(sol.summary.status) << "\", \"kfx_method\": \"" << kfx::ToString(sol.summary.method_used)
+            << "\", \"kfx_steps\": " << sol.summary.iterations << ", \"kfx_refine\": " << sol.summary.refinement_steps
+            << "}\n";
+  return 0;
+}
+
+int Lyap(const std::string& dir, int n, int reps) {
+  const std::string p = "lyap_" + std::to_string(n) + "_";
+  const MatrixXd A = Load(dir, p + "A"), Q = Load(dir, p + "Q");
+  std::vector<double> t_kfx, t_slicot, ratio;
+  MatrixXd Xk, Xs;
+  int info = 0;
+  for (int i = 0; i < reps; ++i) {
+    double t0 = CpuSeconds();
+    Xk = kfx::SolveDiscreteLyapunov(A, Q);
+    t_kfx.push_back(CpuSeconds() - t0);
+    t0 = CpuSeconds();
+    info = Sb03md(A, Q, &Xs);
+    t_slicot.push_back(CpuSeconds() - t0);
+    ratio.push_back(t_slicot.back() / t_kfx.back());
+  }
+  kfx::WriteNpyMatrix(dir + "/" + p + "X_kfx.npy", Xk);
+  kfx::WriteNpyMatrix(dir + "/" + p + "X_sb03md.npy", Xs);
+  std::cout << "{\"kfx\": " << JsonList(t_kfx) << ", \"sb03md\": " << JsonList(t_slicot)
+            << ", \"paired_ratio\": " << JsonList(ratio) << ", \"sb03md_info\": " << info << "}\n";
+  return 0;
+}
+
+int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
+  const std::string p = "kf_" + std::to_string(n) + "_";
+  // Loaded straight into the model (no second copy of A, Q, P0 in this process).
+  const kfx::Model model(kfx::MakeStep(Load(dir, p + "A"), Load(dir, p + "C"), Load(dir, p + "Q"), Load(dir, p + "R")),
+                         Load(dir, p + "m0"), Load(dir, p + "P0"));
+  const kfx::TimeSeries Y = Load(dir, p + "Y");
+  const MatrixXd& C = model.step(1)->C;
+  const Eigen::VectorXd& m0 = model.m0();
+  const MatrixXd& P0 = model.P0();
+  kfx::FilterRunOptions options;
+  options.store_covariances = false;
+  options.steady_state_tolerance = tol;
+  std::vector<double> t_run;
+  kfx::FilterRun run;
+  for (int i = 0; i < reps; ++i) {
+    run = kfx::FilterRun();
+    const double t0 = CpuSeconds();
+    run = kfx::RunFilter(model, Y, options);
+    t_run.push_back(CpuSeconds() - t0);
+  }
+  const double rss = PeakRssMb();
+  // The covariance recursion alone (Predict + Update on P, no fast path): its rate in the flops it
+  // needs. Needed per step (m = C.rows()): A P A^T with a symmetric result 3 n^3 (one GEMM, half of a
+  // second); U = P C^T 2 n^2 m; S = C U (half) n m^2; Cholesky m^3 / 3; K = U S^-1 2 n m^2;
+  // P - K U^T (half) n^2 m. The Joseph form and the symmetrization are kfx's choice, not counted.
+  std::vector<double> t_cov;
+  const kfx::ModelStep& s = *model.step(1);
+  kfx::Estimate e{m0, P0};
+  const Eigen::VectorXd y0 = Y.row(0).transpose();
+  for (int i = 0; i < cov_steps; ++i) {
+    const double t0 = CpuSeconds();
+    kfx::UpdateResult u = kfx::Update(kfx::Predict(e, s), s, y0);
+    t_cov.push_back(CpuSeconds() - t0);
+    e = std::move(u.estimate);
+  }
+  const double nn = n, mm = static_cast<double>(C.rows());
+  const double flops = 3 * nn * nn * nn + 3 * nn * nn * mm + 3 * nn * mm * mm + mm * mm * mm / 3;
+  kfx::WriteNpyMatrix(dir + "/" + p + "xfilt_kfx.npy", run.x_filt);
+  const kfx::TimeSeries last = run.P_filt_diag.bottomRows(1);
+  kfx::WriteNpyMatrix(dir + "/" + p + "Pdiag_kfx.npy", last);
+  std::cout << "{\"kfx\": " << JsonList(t_run) << ", \"cov_step\": " << JsonList(t_cov)
+            << ", \"cov_step_flops\": " << Num(flops) << ", \"peak_rss_mb\": " << Num(rss)
+            << ", \"loglik\": " << Num(run.log_likelihood) << ", \"steps\": " << Y.rows()
+            << ", \"steady_state_steps\": " << run.steady_state_steps << "}\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> a(argv + 1, argv + argc);
+  try {
+    if (a.size() == 2 && a[0] == "dgemm") return Dgemm(std::stoi(a[1]));
+    if (a.size() == 4 && a[0] == "dare") return Dare(a[1], std::stoi(a[2]), std::stoi(a[3]));
+    if (a.size() == 4 && a[0] == "lyap") return Lyap(a[1], std::stoi(a[2]), std::stoi(a[3]));
+    if (a.size() == 6 && a[0] == "kf")
+      return Kf(a[1], std::stoi(a[2]), std::stoi(a[3]), std::stoi(a[4]), std::stod(a[5]));
+  } catch (const std::exception& e) {
+    std::cerr << "kfx_peers: " << e.what() << "\n";
+    return 1;
+  }
+  std::cerr << "usage: kfx_peers dgemm REPS | dare DIR N REPS | lyap DIR N REPS | kf DIR N REPS COV_STEPS TOL\n";
+  return 2;
+}
