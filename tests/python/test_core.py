@@ -225,10 +225,14 @@ def test_fortran_ordered_noncontiguous_and_integer_inputs_give_the_same_numbers(
     assert not view.flags.c_contiguous
     modelF = kfx.Model(A=np.asfortranarray(d["A"]), C=np.asfortranarray(d["C"]), Q=np.asfortranarray(d["Q"]),
                        R=np.asfortranarray(d["R"]), m0=d["m0"], P0=np.asfortranarray(d["P0"]))
-    for yy in (np.asfortranarray(y), view, y.astype(np.float32).astype(np.float64), y.T.copy().T):
+    for yy in (np.asfortranarray(y), view, y.T.copy().T):
         out = kfx.run_filter(modelF, yy).x_filt
         assert out.dtype == np.float64 and out.shape == (21, 4) and out.flags.c_contiguous
         np.testing.assert_allclose(out, ref, rtol=1e-12, atol=1e-14)
+    # float32 input is converted to float64 (the same numbers as the float64 copy of those values)
+    y32 = y.astype(np.float32)
+    np.testing.assert_array_equal(kfx.run_filter(model, y32).x_filt,
+                                  kfx.run_filter(model, y32.astype(np.float64)).x_filt)
     # integer arrays convert to float64
     s = kfx.solve_filter_dare(np.array([[1]]), np.array([[1]]), np.array([[1]]), np.array([[1]]))
     assert s.P_pred.dtype == np.float64
