@@ -32,24 +32,21 @@ def test_array_figures_write_png_and_svg(tmp_path):
     assert open(tmp_path / "band.svg").read(200).lstrip().startswith("<?xml")
 
 
-def test_render_draws_the_paper_figures_from_reproduce_data(tmp_path):
-    kfx.reproduce("aalto-temporal", quick=True, out_dir=str(tmp_path / "aalto-temporal"))
-    written = plots.render(str(tmp_path))
-    assert any(p.endswith("convergence.png") for p in written)
-    assert any(p.endswith("convergence.svg") for p in written)
-
-
 def test_cli_reproduce_out_draws_figures_or_says_why_not(cli, tmp_path):
-    r = subprocess.run([cli, "reproduce", "aalto-temporal", "--quick", "--out", str(tmp_path / "figs")],
+    # bernstein: the quickest reproduction that has figures
+    r = subprocess.run([cli, "reproduce", "bernstein", "--quick", "--out", str(tmp_path / "figs")],
                        check=True, capture_output=True, text=True)
     assert "figures:" in r.stdout and "PNG and SVG" in r.stdout, r.stdout
     listed = open(tmp_path / "figs" / "figures.txt").read().split()
-    assert any(p.endswith(".png") for p in listed) and any(p.endswith(".svg") for p in listed)
+    assert any(p.endswith("fig2a.png") for p in listed) and any(p.endswith("fig2a.svg") for p in listed)
     for p in listed:
         assert os.path.getsize(p) > 0
+    # kfx.plots.render on the same data from Python gives the same files
+    assert sorted(plots.render(str(tmp_path / "figs"))) == sorted(listed)
     env = dict(os.environ, KFX_PYTHON="/nonexistent/python3")
-    r = subprocess.run([cli, "reproduce", "aalto-temporal", "--quick", "--out", str(tmp_path / "nofigs")],
+    r = subprocess.run([cli, "reproduce", "bernstein", "--quick", "--out", str(tmp_path / "nofigs")],
                        check=True, capture_output=True, text=True, env=env)
     assert "figures: not drawn: no Python with matplotlib (tried /nonexistent/python3)" in r.stdout, r.stdout
     assert "CSV data are in" in r.stdout
     assert not (tmp_path / "nofigs" / "figures.txt").exists()
+    assert (tmp_path / "nofigs" / "bernstein" / "fig2a.csv").exists()
