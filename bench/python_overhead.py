@@ -6,10 +6,11 @@
 2. one KalmanFilter.predict() / update(z) call from Python: target < 5 microseconds each.
 
 Usage: OPENBLAS_NUM_THREADS=1 PYTHONPATH=build/python /usr/bin/python3 bench/python_overhead.py
-Prints one line per measurement and exits 1 if a target is missed (the numbers are meaningless on a
-loaded machine: run it alone).
+Prints one line per measurement and exits 1 if a target is missed. Times are CPU times of this
+process (best of 7), so a loaded machine inflates them less than wall time would; still, run it alone.
 """
 import sys
+import time
 import timeit
 
 import numpy as np
@@ -54,7 +55,9 @@ def batch():
 
 
 def best(fn, number, repeat=7):
-    return min(timeit.repeat(fn, number=number, repeat=repeat)) / number
+    # CPU time of this process (time.process_time), not wall time: on a shared machine the wall clock
+    # also counts the time other processes hold the CPU. Best of `repeat`.
+    return min(timeit.repeat(fn, number=number, repeat=repeat, timer=time.process_time)) / number
 
 
 mu_np, cov_np = numpy_loop(y)
