@@ -210,7 +210,10 @@ class KalmanFilter:
     def predict(self: KalmanFilter) -> None: """x = F x, P = F P F^T + Q."""
     def rts_smoother(self: KalmanFilter, Xs: numpy.ndarray, Ps: numpy.ndarray) -> tuple: """Rauch-Tung-Striebel smoother over filtered (Xs (T, n), Ps (T, n, n)) with this F, Q: returns (x, P, K, Pp) as FilterPy (K: smoother gains, Pp: predicted covariances F P F^T + Q)."""
     def to_model(self: KalmanFilter) -> Model: """The time-invariant kfx.Model (F, H, Q, R, x, P)."""
-    def update(self: KalmanFilter, z: numpy.ndarray) -> None: """Measurement update with z (m,); NaN entries are missing (all NaN: no update)."""
+    @typing.overload
+    def update(self: KalmanFilter, z: numpy.ndarray) -> None: ...
+    @typing.overload
+    def update(self: KalmanFilter, z: float) -> None: ...
     update_form: str
     x: numpy.ndarray
     x_post: numpy.ndarray

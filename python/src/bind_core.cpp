@@ -444,6 +444,9 @@ void BindCore(py::module_& m) {
       .def("predict", &PyKalmanFilter::predict, "x = F x, P = F P F^T + Q.")
       .def("update", &PyKalmanFilter::update, py::arg("z"),
            "Measurement update with z (m,); NaN entries are missing (all NaN: no update).")
+      .def(
+          "update", [](PyKalmanFilter& f, double z) { f.update(Eigen::VectorXd::Constant(1, z)); }, py::arg("z"),
+          "A scalar measurement (dim_z = 1).")
       .def("batch_filter", &PyKalmanFilter::batch_filter, py::arg("zs"), py::arg("update_state") = true,
            "Filters zs (T, m) in one call (kfx.run_filter): returns (means (T, n), covariances (T, n, n), "
            "means_p, covariances_p), predicted then updated for each row; x, P end at the last estimate.")

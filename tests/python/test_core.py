@@ -244,6 +244,22 @@ def test_fortran_ordered_noncontiguous_and_integer_inputs_give_the_same_numbers(
     np.testing.assert_array_equal(kf.x, d["m0"])
 
 
+def test_scalar_and_column_measurements_for_dim_z_1(cv):
+    model = make(cv)
+    _, y = kfx.simulate(model, steps=5, seed=1)
+    ref = kfx.run_filter(model, y).x_filt
+    for convert in (lambda z: float(z[0]), lambda z: z.reshape(1, 1), lambda z: z):
+        kf = kfx.KalmanFilter(model)
+        for k, z in enumerate(y):
+            kf.predict()
+            kf.update(convert(z))
+            np.testing.assert_array_equal(kf.x, ref[k + 1])
+    np.testing.assert_array_equal(kfx.KalmanFilter(model).batch_filter(y[:, 0])[0], ref[1:])
+    with pytest.raises(kfx.Error, match="length 1"):
+        kf2 = kfx.KalmanFilter(2, 2)
+        kf2.update(1.0)
+
+
 def test_returned_arrays_are_copies_or_read_only(cv):
     kf = kfx.KalmanFilter(make(cv))
     x0 = kf.x
