@@ -418,6 +418,10 @@ void DrawFigures(const std::string& out_dir) {
   std::ifstream in(list);
   int count = 0;
   for (std::string line; std::getline(in, line);) count += !line.empty();
+  if (count == 0) {
+    std::cout << "figures: none to draw for this output (kfx.plots found no figure data)\n";
+    return;
+  }
   std::cout << "figures: " << count << " files (PNG and SVG) drawn with " << python << " (kfx.plots), listed in "
             << list << "\n";
 }

@@ -43,10 +43,13 @@ def test_cli_reproduce_out_draws_figures_or_says_why_not(cli, tmp_path):
         assert os.path.getsize(p) > 0
     # kfx.plots.render on the same data from Python gives the same files
     assert sorted(plots.render(str(tmp_path / "figs"))) == sorted(listed)
+    # Without Python (patel-toda: quick, and the message does not depend on the paper)
     env = dict(os.environ, KFX_PYTHON="/nonexistent/python3")
-    r = subprocess.run([cli, "reproduce", "bernstein", "--quick", "--out", str(tmp_path / "nofigs")],
+    r = subprocess.run([cli, "reproduce", "patel-toda", "--quick", "--out", str(tmp_path / "nofigs")],
                        check=True, capture_output=True, text=True, env=env)
     assert "figures: not drawn: no Python with matplotlib (tried /nonexistent/python3)" in r.stdout, r.stdout
     assert "CSV data are in" in r.stdout
     assert not (tmp_path / "nofigs" / "figures.txt").exists()
-    assert (tmp_path / "nofigs" / "bernstein" / "fig2a.csv").exists()
+    r = subprocess.run([cli, "reproduce", "patel-toda", "--quick", "--out", str(tmp_path / "none")],
+                       check=True, capture_output=True, text=True)
+    assert "figures: none to draw" in r.stdout, r.stdout
