@@ -15,6 +15,7 @@ export OMP_NUM_THREADS ?= 1
 DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapacke-dev libslicot-dev \
                 libcli11-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev \
                 python3-matplotlib
+DEB_PACKAGES += pybind11-dev python3-pybind11 python3-numpy python3-pytest
 KFX := $(BUILD)/bin/kfx
 # make bench-peers only (issue 9; not needed by make test or CI):
 PEERS_PACKAGES := python3-scipy octave octave-control

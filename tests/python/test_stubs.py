@@ -1,0 +1,25 @@
+"""python/kfx/_core.pyi is current: regenerating it from the built module gives the same text
+(after changing the bindings run: PYTHONPATH=build/python /usr/bin/python3 python/gen_stubs.py)."""
+import os
+import subprocess
+import sys
+
+from conftest import ROOT
+
+
+def test_type_stubs_match_the_module(tmp_path):
+    out = tmp_path / "_core.pyi"
+    subprocess.run([sys.executable, os.path.join(ROOT, "python", "gen_stubs.py"), str(out)], check=True,
+                   capture_output=True)
+    committed = open(os.path.join(ROOT, "python", "kfx", "_core.pyi")).read()
+    assert out.read_text() == committed, "python/kfx/_core.pyi is stale: run python/gen_stubs.py"
+    compile(committed, "_core.pyi", "exec")  # valid Python syntax
+
+
+def test_docstrings_are_present():
+    import kfx
+
+    for name in ("run_filter", "solve_filter_dare", "exact_performance", "reproduce", "KalmanFilter",
+                 "run_coupled_filter", "stationary_mismatched_covariance", "study_convergence",
+                 "reduced_order_one_step", "subspace_filter_schedule"):
+        assert len(getattr(kfx, name).__doc__ or "") > 40, name
