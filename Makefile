@@ -15,6 +15,7 @@ export OMP_NUM_THREADS ?= 1
 DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapacke-dev libslicot-dev \
                 libcli11-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev \
                 python3-matplotlib
+DEB_PACKAGES += libopenmpi-dev openmpi-bin
 KFX := $(BUILD)/bin/kfx
 
 .PHONY: demo test deps build test-asan bench format-check install clean
