@@ -659,11 +659,11 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
     sum.n = h.n;
     sum.first = part.first(rank);
     sum.count = part.count(rank);
-    const NpyArray head = ReadNpySlice(job.data, 0, 0, 0);
+    const NpyArray head = ReadNpySlice(job.data, 0, 0, 0);  // header only: the shape with axis 0 set to 0
     if (head.shape.size() != 2 || head.shape[1] != h.n * h.d) {
       throw Error(job.data + ": expected measurements of shape (T, " + std::to_string(h.n * h.d) + ") (n d columns)");
     }
-    const auto rows = static_cast<int>(head.shape[0]);
+    const auto rows = static_cast<int>(ReadNpySlice(job.data, 1, 0, 0).shape[0]);  // header only
     sum.steps = job.steps < 0 ? rows : job.steps;
     if (sum.steps > rows) {
       throw Error("steps: expected at most " + std::to_string(rows) + " (the rows of " + job.data + "), got " +

@@ -117,7 +117,9 @@ TEST_P(Partitioned, BlockDiagonalIndependentOfPartitionAndEqualToSerial) {
   const SlicedRun one = RunCoupledFilterPartitioned(sys, CoupledFilterKind::kBlockDiagonal,
                                                     PartitionByCost(cf.n, 1, cf.granule), cf.granule, y)[0];
   EXPECT_LT(Rel(one.x_filt, serial.x_filt), 1e-11);
-  if (cf.r > 0) EXPECT_LT(Rel(one.coupling, serial.coupling), 1e-11);
+  if (cf.r > 0) {
+    EXPECT_LT(Rel(one.coupling, serial.coupling), 1e-11);
+  }
   for (int P : {2, 3, 5}) {
     const Partition part = PartitionByCost(cf.n, P, cf.granule);
     const std::vector<SlicedRun> runs =
@@ -149,7 +151,12 @@ TEST_P(Partitioned, BandedEqualToSerial) {
 
 INSTANTIATE_TEST_SUITE_P(Shapes, Partitioned,
                          ::testing::Values(Config{37, 2, 1, 4, 4}, Config{30, 3, 2, 3, 2}, Config{21, 1, 1, 2, 3},
-                                           Config{12, 2, 2, 0, 4}, Config{600, 2, 1, 6, 256}));
+                                           Config{12, 2, 2, 0, 4}, Config{600, 2, 1, 6, 256}),
+                         [](const ::testing::TestParamInfo<Config>& i) {
+                           const Config& c = i.param;
+                           return "n" + std::to_string(c.n) + "c" + std::to_string(c.c) + "d" + std::to_string(c.d) +
+                                  "r" + std::to_string(c.r) + "g" + std::to_string(c.granule);
+                         });
 
 TEST(CoupledFilterSlice, RejectsBadInput) {
   EXPECT_THROW(CoupledFilterSlice(CoupledFilterKind::kFull, 0, 4, VectorXd::Zero(2), MatrixXd::Identity(2, 2)), Error);
