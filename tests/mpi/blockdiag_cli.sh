@@ -31,6 +31,6 @@ set +e
 code=$?
 set -e
 cat "$W/bad.err"
-test $code -ne 0
-grep -q "kfx: error (rank 0): .*bad.npy: expected measurements of shape" "$W/bad.err"
+[[ $code -ne 0 ]] || { echo "FAIL: expected a non-zero exit code"; exit 1; }
+grep -q "kfx: error (rank 0): .*bad.npy: expected measurements of shape" "$W/bad.err" || { echo "FAIL: error line"; exit 1; }
 echo "blockdiag CLI: ok"
