@@ -28,7 +28,8 @@ class Communicator {
   /// In place, on every rank: the CompensatedAdd of all ranks' (hi, lo) pairs — one MPI_Allreduce with
   /// a commutative user operation on a 2-double datatype. Same length on all ranks.
   void AllreduceCompensated(std::vector<double>& pairs) const;
-  /// A Reducer for distributed.hpp that calls AllreduceCompensated (and counts the time spent in it).
+  /// A Reducer for distributed.hpp that calls AllreduceCompensated (and counts the time spent in it);
+  /// valid while this Communicator lives.
   Reducer MakeReducer();
   double reduce_seconds() const { return reduce_seconds_; }  ///< total time in MakeReducer's reductions
   long reduce_calls() const { return reduce_calls_; }
