@@ -16,6 +16,7 @@ DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapac
                 libcli11-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev \
                 python3-matplotlib
 DEB_PACKAGES += pybind11-dev python3-pybind11 python3-numpy python3-pytest
+DEB_PACKAGES += libopenmpi-dev openmpi-bin
 KFX := $(BUILD)/bin/kfx
 # make bench-peers only (issue 9; not needed by make test or CI):
 PEERS_PACKAGES := python3-scipy octave octave-control

@@ -10,6 +10,8 @@
 #include "kfx/simulation.hpp"
 #include "kfx/validation.hpp"
 
+#include "block_diagonal_internal.hpp"  // the range-based passes defined at the end of this file
+
 namespace kfx {
 
 using Eigen::Index;
@@ -934,3 +936,90 @@ CoupledTrajectory SimulateCoupled(const CoupledSystem& system, int steps, std::u
 }
 
 }  // namespace kfx
+
+// ---- Range-based passes for the distributed filter (src/block_diagonal_internal.hpp) -----------------
+// The same kernels and chunking as BlockDiagonalCovarianceUpdate above, over a range of subsystems.
+
+namespace kfx::detail {
+
+void BlockDiagonalResize(const CoupledStep& s, BlockDiagonalCovarianceStep* out) {
+  const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
+  out->P_filt.resize(c, n * c);
+  out->gain.J.resize(c, n * d);
+  out->gain.Yt.resize(r, n * d);
+  out->gain.Et.resize(r, n * c);
+}
+
+void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Index i1, BlockDiagonalWorkspace* w,
+                        BlockDiagonalCovarianceStep* out, MatrixXd* N) {
+  const Index c = s.c(), d = s.d(), r = s.r();
+  BlockDiagonalGain& g = out->gain;
+  if (r == 0) {
+    SubsystemKalmanSteps(s, Pp, s.V, i0, i1, nullptr, g.J, out->P_filt);
+    return;
+  }
+  const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
+  if (w->Gt.rows() != r || w->Gt.cols() < chunk * c) w->Gt.resize(r, chunk * c);
+  if (w->Zt.rows() != r || w->Zt.cols() < chunk * d) w->Zt.resize(r, chunk * d);
+  w->hg.resize(r, d);
+  if (w->rinv.size() < chunk * d * d) w->rinv.resize(chunk * d * d);
+  auto pass1 = [&](auto C, auto D) {
+    for (Index b0 = i0; b0 < i1; b0 += chunk) {
+      const Index nb = std::min(chunk, i1 - b0);
+      SubsystemKalmanSteps(s, Pp, s.V, b0, b0 + nb, w->rinv.data(), g.J, out->P_filt);
+      TransposeRows(s.G, b0 * c, nb * c, w->Gt.data());
+      if (d == 1) {
+        CouplingPass1ScalarMeasurement(c, r, nb, s.H.data() + b0 * c, g.J.data() + b0 * c, w->rinv.data(), w->Gt.data(),
+                                       w->Zt.data(), g.Yt.data() + b0 * r, g.Et.data() + b0 * c * r);
+      } else {
+        CouplingPass1<decltype(C)::value, decltype(D)::value>(
+            c, d, r, nb, s.H.data() + b0 * d * c, g.J.data() + b0 * c * d, w->rinv.data(), w->Gt.data(), w->hg.data(),
+            w->Zt.data(), g.Yt.data() + b0 * d * r, g.Et.data() + b0 * c * r);
+      }
+      N->selfadjointView<Eigen::Lower>().rankUpdate(w->Zt.leftCols(nb * d));
+    }
+  };
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  using Dyn = std::integral_constant<int, Eigen::Dynamic>;
+  if (c == 2 && d == 1) {
+    pass1(Two{}, One{});
+  } else if (c == 1 && d == 1) {
+    pass1(One{}, One{});
+  } else if (c == 2 && d == 2) {
+    pass1(Two{}, Two{});
+  } else {
+    pass1(Dyn{}, Dyn{});
+  }
+}
+
+MatrixXd BlockDiagonalFactor(const MatrixXd& U, const MatrixXd& N, MatrixXd* C1) {
+  const MatrixXd S = PsdFactor(U);
+  MatrixXd T = MatrixXd::Identity(S.cols(), S.cols());
+  T.noalias() += S.transpose() * N * S;
+  Eigen::LLT<MatrixXd> tl(T);
+  if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
+  MatrixXd FcT = tl.matrixL().solve(S.transpose());
+  C1->noalias() = FcT.transpose() * FcT;
+  return FcT;
+}
+
+void BlockDiagonalPass2(const MatrixXd& FcT, Index i0, Index i1, BlockDiagonalWorkspace* w,
+                        BlockDiagonalCovarianceStep* out) {
+  const Index c = out->P_filt.rows(), k = FcT.rows();
+  if (FcT.cols() == 0) return;
+  const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
+  if (w->Wt.rows() != k || w->Wt.cols() < chunk * c) w->Wt.resize(k, chunk * c);
+  for (Index b0 = i0; b0 < i1; b0 += chunk) {
+    const Index nb = std::min(chunk, i1 - b0);
+    w->Wt.leftCols(nb * c).noalias() = FcT * out->gain.Et.middleCols(b0 * c, nb * c);
+    double* P = out->P_filt.data() + b0 * c * c;
+    if (c <= 4) {
+      CouplingPass2Strided(c, k, nb, w->Wt.data(), P);
+    } else {
+      CouplingPass2<Eigen::Dynamic>(c, k, nb, w->Wt.data(), P);
+    }
+  }
+}
+
+}  // namespace kfx::detail

@@ -364,12 +364,15 @@ void WriteAll(std::ofstream& out, const std::string& path, const char* data, std
   if (!out) Fail(path, "cannot write file" + OpenErrorDetail());
 }
 
-}  // namespace
+// The parsed header of an open .npy file; `in` is left at the start of the data.
+struct NpyHeader {
+  DType dtype{ElementKind::kFloat, 8};
+  bool fortran = false;
+  std::vector<std::int64_t> shape;
+  std::int64_t count = 0;
+};
 
-NpyArray ReadNpy(const std::string& path) {
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) Fail(path, "cannot open file for reading" + OpenErrorDetail());
+NpyHeader ReadNpyHeader(std::ifstream& in, const std::string& path) {
   in.seekg(0, std::ios::end);
   const std::streamoff file_size = in.tellg();
   in.seekg(0, std::ios::beg);
@@ -426,7 +429,9 @@ NpyArray ReadNpy(const std::string& path) {
     Fail(path, "unsupported .npy array with " + std::to_string(shape_value.items.size()) + " dimensions (at most " +
                    std::to_string(kMaxDimensions) + ")");
   }
-  NpyArray array;
+  NpyHeader array;
+  array.dtype = dtype;
+  array.fortran = fortran.flag;
   for (const PyValue& d : shape_value.items) {
     if (d.kind != PyValue::Kind::kInt) Fail(path, "malformed .npy header: 'shape' holds a non-integer");
     array.shape.push_back(d.integer);
@@ -449,17 +454,79 @@ NpyArray ReadNpy(const std::string& path) {
     Fail(path, "array too large for this platform");
   }
 
-  array.data.resize(static_cast<std::size_t>(count));
+  array.count = count;
+  return array;
+}
+
+// Reads `count` elements at the current position into out (converted to double).
+void ReadElements(std::ifstream& in, const std::string& path, const DType& dtype, std::size_t count, double* out) {
   std::vector<unsigned char> chunk;
   const std::size_t per_chunk = std::max<std::size_t>(1, kChunkBytes / dtype.size);
-  for (std::size_t start = 0; start < array.data.size(); start += per_chunk) {
-    const std::size_t n = std::min(per_chunk, array.data.size() - start);
+  for (std::size_t start = 0; start < count; start += per_chunk) {
+    const std::size_t n = std::min(per_chunk, count - start);
     chunk.resize(n * dtype.size);
     in.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(chunk.size()));
     if (!in) Fail(path, "cannot read the array data");
-    for (std::size_t i = 0; i < n; ++i) array.data[start + i] = DecodeElement(chunk.data() + i * dtype.size, dtype);
+    for (std::size_t i = 0; i < n; ++i) out[start + i] = DecodeElement(chunk.data() + i * dtype.size, dtype);
   }
-  if (fortran.flag) array.data = FortranToC(array.data, array.shape);
+}
+
+std::ifstream OpenNpy(const std::string& path) {
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) Fail(path, "cannot open file for reading" + OpenErrorDetail());
+  return in;
+}
+
+}  // namespace
+
+NpyArray ReadNpy(const std::string& path) {
+  std::ifstream in = OpenNpy(path);
+  const NpyHeader h = ReadNpyHeader(in, path);
+  NpyArray array;
+  array.shape = h.shape;
+  array.data.resize(static_cast<std::size_t>(h.count));
+  ReadElements(in, path, h.dtype, array.data.size(), array.data.data());
+  if (h.fortran) array.data = FortranToC(array.data, array.shape);
+  return array;
+}
+
+NpyArray ReadNpySlice(const std::string& path, int axis, std::int64_t start, std::int64_t count) {
+  std::ifstream in = OpenNpy(path);
+  const NpyHeader h = ReadNpyHeader(in, path);
+  const int ndim = static_cast<int>(h.shape.size());
+  if (axis < 0 || axis >= ndim) {
+    Fail(path, "cannot slice axis " + std::to_string(axis) + " of an array of shape " + ShapeText(h.shape));
+  }
+  const std::int64_t len = h.shape[static_cast<size_t>(axis)];
+  if (start < 0 || count < 0 || start > len || count > len - start) {
+    Fail(path, "slice [" + std::to_string(start) + ", " + std::to_string(start + count) + ") of axis " +
+                   std::to_string(axis) + " is outside the shape " + ShapeText(h.shape));
+  }
+  // In file order the array has shape h.shape (C order) or its reverse (Fortran order): the slice is
+  // `outer` runs of count * inner contiguous elements, `len * inner` apart.
+  std::vector<std::int64_t> file_shape = h.shape;
+  int file_axis = axis;
+  if (h.fortran) {
+    std::reverse(file_shape.begin(), file_shape.end());
+    file_axis = ndim - 1 - axis;
+  }
+  std::int64_t outer = 1, inner = 1;
+  for (int a = 0; a < file_axis; ++a) outer *= file_shape[static_cast<size_t>(a)];
+  for (int a = file_axis + 1; a < ndim; ++a) inner *= file_shape[static_cast<size_t>(a)];
+  NpyArray array;
+  array.shape = h.shape;
+  array.shape[static_cast<size_t>(axis)] = count;
+  array.data.resize(static_cast<std::size_t>(outer * count * inner));
+  const std::streamoff data_start = in.tellg();
+  const auto item = static_cast<std::streamoff>(h.dtype.size);
+  for (std::int64_t o = 0; o < outer && count > 0; ++o) {
+    in.seekg(data_start + ((o * len + start) * inner) * item);
+    if (!in) Fail(path, "cannot seek in the array data");
+    ReadElements(in, path, h.dtype, static_cast<std::size_t>(count * inner),
+                 array.data.data() + static_cast<std::size_t>(o * count * inner));
+  }
+  if (h.fortran) array.data = FortranToC(array.data, array.shape);
   return array;
 }
 

@@ -1,4 +1,5 @@
 #include "kfx/performance.hpp"
+#include "performance_internal.hpp"
 
 #include <cmath>
 #include <limits>
@@ -292,3 +293,9 @@ MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& f
 }
 
 }  // namespace kfx
+
+namespace kfx::detail {
+int CheckMonteCarloEvaluation(const Model& truth, const LinearFilter& filter, const MonteCarloOptions& options) {
+  return CheckEvaluation(truth, filter, options);
+}
+}  // namespace kfx::detail

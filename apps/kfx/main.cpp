@@ -12,6 +12,7 @@
 #include <optional>
 #include <sstream>
 
+#include "blockdiag.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
@@ -515,6 +516,11 @@ int Main(int argc, char** argv) {
   c_rep->add_option("--out", rep.out, "Directory for figures and data");
   c_rep->add_flag("--quick", rep.quick, "Small, fast versions of the computations");
 
+  BlockDiagArgs bd;
+  auto* c_bd = app.add_subcommand(
+      "blockdiag", "Block-diagonal or banded filter of many coupled subsystems (mpirun -np N kfx blockdiag ...)");
+  AddBlockDiagOptions(c_bd, &bd);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -536,6 +542,7 @@ int Main(int argc, char** argv) {
   if (c_ana->parsed()) return RunAnalyze(ana);
   if (c_mis->parsed()) return RunMismatch(mis);
   if (c_rep->parsed()) return RunReproduce(rep);
+  if (c_bd->parsed()) return RunBlockDiag(argc, argv, bd);
   return 2;
 }
 

@@ -20,6 +20,10 @@ struct NpyArray {
 /// Reads a .npy file (format versions 1.0-3.0; dtypes <f8, <f4, <i8, <i4, <u1, |b1 read as double;
 /// fortran_order true or false). @throws kfx::Error for an unreadable/truncated/unsupported file.
 NpyArray ReadNpy(const std::string& path);
+/// Reads only elements [start, start + count) along `axis` of a .npy file (the slice a process needs of a
+/// large array; seeks past the rest). The returned shape is the file's with that axis set to count.
+/// @throws kfx::Error as ReadNpy, or for an axis or range outside the array's shape.
+NpyArray ReadNpySlice(const std::string& path, int axis, std::int64_t start, std::int64_t count);
 /// Writes a C-order <f8 array. @throws kfx::Error if the file cannot be written or sizes disagree.
 void WriteNpy(const std::string& path, const std::vector<std::int64_t>& shape, const double* data);
 /// A 2-D array (a 1-D array of length n becomes n x 1). @throws kfx::Error for other ranks.

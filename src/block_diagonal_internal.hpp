@@ -1,0 +1,36 @@
+#pragma once
+// Range-based passes of the O(n r^2) block-diagonal step (004 eqs. (8)-(17)), for the distributed
+// filter (include/kfx/distributed.hpp). They call the same kernels as BlockDiagonalCovarianceUpdate
+// (src/block_diagonal.cpp); for subsystems [i0, i1) of the (local) step s:
+//   pass 1: the per-subsystem Kalman steps (J, P = L - J H L) and E^T, Y^T, and N += Z^T Z;
+//   factor: C_1 = (U^{-1} + N)^{-1} = Fc Fc^T without inverting U;
+//   pass 2: P_i += W_i W_i^T, W^T = Fc^T E^T.
+// A subsystem's results depend only on its own blocks, on Fc and on where its internal chunk of
+// kfx's 256 subsystems starts, so callers that start every range at the same global positions get
+// the same bits on any partition.
+#include <Eigen/Dense>
+
+#include "kfx/block_diagonal.hpp"
+
+namespace kfx::detail {
+
+/// Scratch buffers of the passes (resized on first use; reuse across steps avoids allocation).
+struct BlockDiagonalWorkspace {
+  Eigen::MatrixXd Gt, Zt, hg, Wt;
+  Eigen::VectorXd rinv;
+};
+
+/// Sizes out->P_filt, out->gain.J, Et, Yt for s (keeps the storage when the sizes agree).
+void BlockDiagonalResize(const CoupledStep& s, BlockDiagonalCovarianceStep* out);
+/// Pass 1 over subsystems [i0, i1) of s; adds Z^T Z of the range to the lower triangle of N (r x r).
+/// For r = 0 only the per-subsystem Kalman steps. Shapes must have been checked by the caller.
+void BlockDiagonalPass1(const CoupledStep& s, const Eigen::MatrixXd& P_prev_blocks, Eigen::Index i0, Eigen::Index i1,
+                        BlockDiagonalWorkspace* work, BlockDiagonalCovarianceStep* out, Eigen::MatrixXd* N);
+/// From the full symmetric N: C_1 into *C1 and returns Fc^T (k x r, C_1 = Fc Fc^T, k = rank of U).
+/// @throws kfx::NumericalError if I + S^T N S is not positive definite.
+Eigen::MatrixXd BlockDiagonalFactor(const Eigen::MatrixXd& U, const Eigen::MatrixXd& N, Eigen::MatrixXd* C1);
+/// Pass 2 over subsystems [i0, i1): P_i += W_i W_i^T.
+void BlockDiagonalPass2(const Eigen::MatrixXd& FcT, Eigen::Index i0, Eigen::Index i1, BlockDiagonalWorkspace* work,
+                        BlockDiagonalCovarianceStep* out);
+
+}  // namespace kfx::detail
