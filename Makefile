@@ -6,6 +6,10 @@ SHELL := /bin/bash
 BUILD ?= build
 ASAN_BUILD ?= build-asan
 BENCH_BUILD ?= build-bench
+FUZZ_BUILD ?= build-fuzz
+# Per-target budget of make fuzz (executions) and make fuzz-smoke (seconds).
+FUZZ_RUNS ?= 1000000
+FUZZ_SECONDS ?= 30
 JOBS ?= 2
 PREFIX ?= /usr/local
 # One BLAS/OpenMP thread: on a shared 2-core machine more threads are erratic.
@@ -15,9 +19,11 @@ export OMP_NUM_THREADS ?= 1
 DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapacke-dev libslicot-dev \
                 libcli11-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev \
                 python3-matplotlib
+# Fuzzing (make fuzz, make fuzz-smoke): Clang with libFuzzer and the sanitizer runtimes.
+DEB_PACKAGES += clang libclang-rt-14-dev
 KFX := $(BUILD)/bin/kfx
 
-.PHONY: demo test deps build test-asan bench format-check install clean
+.PHONY: demo test deps build test-asan bench format-check install clean fuzz fuzz-build fuzz-smoke
 
 deps:
 	@bash tools/install-deps.sh $(DEB_PACKAGES)
@@ -46,6 +52,19 @@ bench: deps
 	cmake --build $(BENCH_BUILD) -j$(JOBS)
 	bash bench/run.sh $(BENCH_BUILD)
 
+# libFuzzer targets (readers of .npy, CSV, model files; CLI arguments) under ASan + UBSan, built
+# from the reader sources only. fuzz: FUZZ_RUNS executions each; fuzz-smoke: FUZZ_SECONDS each.
+fuzz-build: deps
+	@cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=clang++ -DKFX_BUILD_FUZZERS=ON \
+	  -DKFX_BUILD_TESTS=OFF -DKFX_BUILD_APPS=OFF -DKFX_PCH=OFF > $(FUZZ_BUILD).configure.log 2>&1 || (cat $(FUZZ_BUILD).configure.log; exit 1)
+	cmake --build $(FUZZ_BUILD) -j$(JOBS) --target kfx_fuzzers
+
+fuzz: fuzz-build
+	bash fuzz/run.sh $(FUZZ_BUILD) -runs=$(FUZZ_RUNS)
+
+fuzz-smoke: fuzz-build
+	bash fuzz/run.sh $(FUZZ_BUILD) -max_total_time=$(FUZZ_SECONDS)
+
 format-check:
 	@clang-format --dry-run -Werror $$(git ls-files '*.cpp' '*.hpp')
 
@@ -54,3 +73,4 @@ install: build
 
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD) $(BENCH_BUILD) $(BUILD).configure.log $(ASAN_BUILD).configure.log demo-out
+	rm -rf $(FUZZ_BUILD) $(FUZZ_BUILD).configure.log
