@@ -148,7 +148,7 @@ class FactoredCovariance {
       default: {
         Eigen::LLT<MatrixXd> llt(Y_);
         if (llt.info() != Eigen::Success) {
-          throw NumericalError("information form: information matrix not positive definite (Cholesky failed)");
+          throw NumericalError("information matrix not positive definite (Cholesky failed)");
         }
         P = llt.solve(MatrixXd::Identity(n_, n_));
         break;
@@ -241,7 +241,7 @@ class FactoredCovariance {
     } else {
       Eigen::LLT<MatrixXd> y_llt(Y_);
       if (y_llt.info() != Eigen::Success) {
-        throw NumericalError("information form: information matrix not positive definite (Cholesky failed)");
+        throw NumericalError("information matrix not positive definite (Cholesky failed)");
       }
       const MatrixXd Z = y_llt.matrixL().solve(C.transpose());  // L_Y^{-1} C^T
       u.S = R;
@@ -258,7 +258,7 @@ class FactoredCovariance {
       Symmetrize(Y_);
       Eigen::LLT<MatrixXd> yp_llt(Y_);
       if (yp_llt.info() != Eigen::Success) {
-        throw NumericalError("information form: updated information matrix not positive definite");
+        throw NumericalError("updated information matrix not positive definite (Cholesky failed)");
       }
       const MatrixXd KLr = yp_llt.solve(Ct.transpose());  // P+ C^T L_R^{-T}
       u.K = Lr.transpose().triangularView<Eigen::Upper>().solve(KLr.transpose()).transpose();
@@ -280,7 +280,8 @@ class FactoredCovariance {
     const MatrixXd& A = s.A;
     const MatrixXd I = MatrixXd::Identity(n_, n_);
     Eigen::PartialPivLU<MatrixXd> a_lu(A);
-    if (a_lu.rcond() > 1e-12) {
+    const VectorXd pivots = a_lu.matrixLU().diagonal().cwiseAbs();
+    if (pivots.minCoeff() > 1e-12 * pivots.maxCoeff() && a_lu.rcond() > 1e-12) {
       const MatrixXd Ainv = a_lu.inverse();
       const MatrixXd M = Ainv.transpose() * Y_ * Ainv;
       MatrixXd IMQ = I;
@@ -299,8 +300,7 @@ class FactoredCovariance {
       W.noalias() += A.transpose() * QiA;
       Symmetrize(W);
       Eigen::LLT<MatrixXd> w_llt(W);
-      if (w_llt.info() != Eigen::Success)
-        throw NumericalError("information form: Y + A^T Q^{-1} A not positive definite");
+      if (w_llt.info() != Eigen::Success) throw NumericalError("Y + A^T Q^{-1} A not positive definite");
       Y_ = Qi;
       Y_.noalias() -= QiA * w_llt.solve(QiA.transpose());
     }

@@ -237,7 +237,7 @@ TEST(RobustFilter, IllConditionedCasesStayPositiveDefiniteAndAccurate) {
       if (f.form == FilterForm::kSquareRoot || f.form == FilterForm::kUD) {
         SCOPED_TRACE(std::string("(A) ") + f.name);
         EXPECT_TRUE(c.positive_definite);
-        EXPECT_LT(c.rel_error, 1e-3 * (d / 1e-9));
+        EXPECT_LT(c.rel_error, d == 1e-6 ? 1e-9 : 1e-6);  // measured 1e-10 and 8e-8
       }
     }
   }
@@ -250,7 +250,7 @@ TEST(RobustFilter, IllConditionedCasesStayPositiveDefiniteAndAccurate) {
       if (f.form != FilterForm::kConventional) {
         SCOPED_TRACE(std::string("(B) ") + f.name);
         EXPECT_TRUE(c.positive_definite);
-        EXPECT_LT(c.rel_error, 1e-6);
+        EXPECT_LT(c.rel_error, 1e-6);  // measured 2.4e-8 (square root, e = 1e-8), others below 1e-13
       }
     }
   }
@@ -261,7 +261,7 @@ TEST(RobustFilter, IllConditionedCasesStayPositiveDefiniteAndAccurate) {
     if (f.form == FilterForm::kSquareRoot || f.form == FilterForm::kUD) {
       SCOPED_TRACE(std::string("(C) ") + f.name);
       EXPECT_TRUE(c.positive_definite);
-      EXPECT_LT(c.rel_error, 1e-6);
+      EXPECT_LT(c.rel_error, 1e-6);  // measured 8e-8 (square root), 3e-15 (UD)
     }
   }
 }
