@@ -18,7 +18,7 @@ for target in npy csv model cli; do
   rc=0
   "$build/fuzz/fuzz_$target" "$work" -close_fd_mask=3 -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 \
     -artifact_prefix="$build/fuzz/artifacts/$target-" -print_final_stats=1 "$@" > "$build/fuzz/$target.log" 2>&1 || rc=$?
-  grep -E "^#[0-9]+ +(INITED|DONE)|^Done|number_of_executed_units|peak_rss_mb|SUMMARY|ERROR|deadly signal|Test unit written" \
+  grep -E "^#[0-9]+[[:space:]]+(INITED|DONE)|^Done|number_of_executed_units|peak_rss_mb|SUMMARY|ERROR|deadly signal|Test unit written" \
     "$build/fuzz/$target.log" || true
   [[ $rc -eq 0 ]] || { echo "fuzz_$target: FAILED, exit code $rc (log $build/fuzz/$target.log)"; exit 1; }
 done
