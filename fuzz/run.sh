@@ -22,3 +22,9 @@ for target in npy csv model cli; do
     "$build/fuzz/$target.log" || true
   [[ $rc -eq 0 ]] || { echo "fuzz_$target: FAILED, exit code $rc (log $build/fuzz/$target.log)"; exit 1; }
 done
+# The targets' scratch files (/dev/shm/kfx-fuzz-<pid>, one small input each) are left by libFuzzer's
+# exit; remove those of runs that have ended.
+for d in /dev/shm/kfx-fuzz-* /tmp/kfx-fuzz-*; do
+  [[ -d $d ]] && ! kill -0 "${d##*-}" 2> /dev/null && rm -rf "$d"
+done
+exit 0
