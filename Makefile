@@ -6,6 +6,10 @@ SHELL := /bin/bash
 BUILD ?= build
 ASAN_BUILD ?= build-asan
 BENCH_BUILD ?= build-bench
+FUZZ_BUILD ?= build-fuzz
+# Per-target budget of make fuzz (executions) and make fuzz-smoke (seconds).
+FUZZ_RUNS ?= 1000000
+FUZZ_SECONDS ?= 30
 JOBS ?= 2
 PREFIX ?= /usr/local
 # One BLAS/OpenMP thread: on a shared 2-core machine more threads are erratic.
@@ -17,11 +21,13 @@ DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapac
                 python3-matplotlib
 DEB_PACKAGES += pybind11-dev python3-pybind11 python3-numpy python3-pytest
 DEB_PACKAGES += libopenmpi-dev openmpi-bin
+# Fuzzing (make fuzz, make fuzz-smoke): Clang with libFuzzer and the sanitizer runtimes.
+DEB_PACKAGES += clang libclang-rt-14-dev
 KFX := $(BUILD)/bin/kfx
 # make bench-peers only (issue 9; not needed by make test or CI):
 PEERS_PACKAGES := python3-scipy octave octave-control
 
-.PHONY: demo test deps build test-asan bench format-check install clean
+.PHONY: demo test deps build test-asan bench format-check install clean fuzz fuzz-build fuzz-smoke
 
 deps:
 	@bash tools/install-deps.sh $(DEB_PACKAGES)
@@ -58,6 +64,18 @@ bench-peers:
 	@cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DKFX_BUILD_BENCHMARKS=ON -DKFX_BUILD_TESTS=OFF > $(BENCH_BUILD).configure.log 2>&1 || (cat $(BENCH_BUILD).configure.log; exit 1)
 	cmake --build $(BENCH_BUILD) -j$(JOBS) --target kfx_peers
 	/usr/bin/python3 bench/peers/peers.py --driver $(BENCH_BUILD)/bench/kfx_peers --out $(BENCH_BUILD)/peers $(if $(QUICK),--quick,)
+# libFuzzer targets (readers of .npy, CSV, model files; CLI arguments) under ASan + UBSan, built
+# from the reader sources only. fuzz: FUZZ_RUNS executions each; fuzz-smoke: FUZZ_SECONDS each.
+fuzz-build: deps
+	@cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=clang++ -DKFX_BUILD_FUZZERS=ON \
+	  -DKFX_BUILD_TESTS=OFF -DKFX_BUILD_APPS=OFF -DKFX_PCH=OFF > $(FUZZ_BUILD).configure.log 2>&1 || (cat $(FUZZ_BUILD).configure.log; exit 1)
+	cmake --build $(FUZZ_BUILD) -j$(JOBS) --target kfx_fuzzers
+
+fuzz: fuzz-build
+	bash fuzz/run.sh $(FUZZ_BUILD) -runs=$(FUZZ_RUNS)
+
+fuzz-smoke: fuzz-build
+	bash fuzz/run.sh $(FUZZ_BUILD) -max_total_time=$(FUZZ_SECONDS)
 
 format-check:
 	@clang-format --dry-run -Werror $$(git ls-files '*.cpp' '*.hpp')
@@ -67,3 +85,4 @@ install: build
 
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD) $(BENCH_BUILD) $(BUILD).configure.log $(ASAN_BUILD).configure.log demo-out
+	rm -rf $(FUZZ_BUILD) $(FUZZ_BUILD).configure.log

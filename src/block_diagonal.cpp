@@ -511,119 +511,32 @@ struct EstimateFold {
   VectorXd* mu_u;
 };
 
-// Eqs. (8)-(17), the one implementation behind BlockDiagonalCovarianceUpdate (which stores the gain:
-// E^T and Y^T, O(n r) doubles) and CoupledFilter (which does not: pass 2 recomputes E^T per chunk from
-// G, H and J, and K nu is applied inside the two passes). Without the stored gain each subsystem's
-// data are streamed twice per step (G twice, 2 x 8 c r bytes) instead of about six times, which is
-// what keeps the step linear in n once the arrays leave the cache.
+// Eqs. (8)-(17) over all subsystems, through the range passes below (the distributed filter runs the
+// same passes per slice): BlockDiagonalCovarianceUpdate stores the gain (E^T, Y^T: O(n r) doubles);
+// CoupledFilter does not, and has K nu applied inside the passes. Without the stored gain each
+// subsystem's data are streamed twice per step (G twice, 2 x 8 c r bytes) instead of about six times,
+// which is what keeps the step linear in n once the arrays leave the cache.
 void BlockDiagonalUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep& out, bool store_gain,
                          const EstimateFold* est) {
-  const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
-  out.P_filt.resize(c, n * c);
-  BlockDiagonalGain& g = out.gain;
-  g.J.resize(c, n * d);
-  g.Yt.resize(r, store_gain ? n * d : 0);
-  g.Et.resize(r, store_gain ? n * c : 0);
-  const Index chunk = std::min(kChunk, n);
-  VectorXd jnu(est ? chunk * c : 0);
-  auto add_jnu = [&](Index i0, Index nb) {  // x_i += J_i nu_i over one chunk
-    BlockRowsTimes(g.J, d, i0, nb, est->nu + i0 * d, nb * d, jnu.data(), nb * c, 1);
-    Eigen::Map<VectorXd>(est->x + i0 * c, nb * c) += jnu.head(nb * c);
-  };
-  if (r == 0) {
-    SubsystemKalmanSteps(s, Pp, s.V, 0, n, nullptr, g.J, out.P_filt);
-    g.C1.resize(0, 0);
-    if (est) {
-      for (Index i0 = 0; i0 < n; i0 += chunk) add_jnu(i0, std::min(chunk, n - i0));
-      est->mu_u->resize(0);
-    }
-    return;
+  const Index n = s.n(), r = s.r();
+  detail::BlockDiagonalWorkspace ws;
+  detail::BlockDiagonalResize(s, store_gain, &out);
+  MatrixXd N = MatrixXd::Zero(r, r);
+  VectorXd ytnu = VectorXd::Zero(est ? r : 0);
+  detail::BlockDiagonalPass1(s, Pp, 0, n, est ? est->nu : nullptr, &ws, &out, &N, est ? &ytnu : nullptr);
+  N.triangularView<Eigen::StrictlyUpper>() = N.transpose();
+  MatrixXd FcT(0, r);
+  if (r > 0)
+    FcT = detail::BlockDiagonalFactor(s.U, N, &out.gain.C1);
+  else
+    out.gain.C1.resize(0, 0);
+  VectorXd v;
+  if (est) {
+    v.noalias() = out.gain.C1 * ytnu;  // mu_u = C_1 Y^T nu (after eq. (17), -C_3 = C_1)
+    *est->mu_u = v;
   }
-  MatrixXd Gt(r, chunk * c), Zt(r, chunk * d), hg(r, d), Et_chunk(r, store_gain ? 0 : chunk * c);
-  VectorXd rinv(chunk * d * d), rnu(est ? chunk * d : 0), w = VectorXd::Zero(r), v;
-  MatrixXd N = MatrixXd::Zero(r, r), FcT, Wt;
-  auto passes = [&](auto C, auto D) {
-    // Pass 1, per chunk of subsystems: the per-subsystem Kalman steps (J, P = L - J H L, M^{-1/2}),
-    // then in the transposed layout HG^T, Z^T (and Y^T, E^T when stored) and N += Z^T Z (eq. (16))
-    // as one SYRK per chunk; with the estimate, w += Y^T nu = Z^T (R_c^{-T} nu).
-    for (Index i0 = 0; i0 < n; i0 += chunk) {
-      const Index nb = std::min(chunk, n - i0);
-      SubsystemKalmanSteps(s, Pp, s.V, i0, i0 + nb, rinv.data(), g.J, out.P_filt);
-      TransposeRows(s.G, i0 * c, nb * c, Gt.data());
-      double* yt = store_gain ? g.Yt.data() + i0 * d * r : nullptr;
-      double* et = store_gain ? g.Et.data() + i0 * c * r : nullptr;
-      if (d == 1) {
-        CouplingPass1ScalarMeasurement(c, r, nb, s.H.data() + i0 * c, g.J.data() + i0 * c, rinv.data(), Gt.data(),
-                                       Zt.data(), yt, et);
-      } else {
-        CouplingPass1<decltype(C)::value, decltype(D)::value>(c, d, r, nb, s.H.data() + i0 * d * c,
-                                                              g.J.data() + i0 * c * d, rinv.data(), Gt.data(),
-                                                              hg.data(), Zt.data(), yt, et);
-      }
-      N.selfadjointView<Eigen::Lower>().rankUpdate(Zt.leftCols(nb * d));
-      if (est) {
-        for (Index l = 0; l < nb; ++l) {
-          const Eigen::Map<const MatrixXd> ri(rinv.data() + l * d * d, d, d);
-          rnu.segment(l * d, d).noalias() = ri.transpose() * Eigen::Map<const VectorXd>(est->nu + (i0 + l) * d, d);
-        }
-        w.noalias() += Zt.leftCols(nb * d) * rnu.head(nb * d);
-      }
-    }
-    N.triangularView<Eigen::StrictlyUpper>() = N.transpose();
-    // C_1 = (U^{-1} + N)^{-1} (eq. (11)) without inverting U (U may be singular, even 0):
-    // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = Fc Fc^T, Fc = S L^{-T}, (I + S^T N S) = L L^T.
-    const MatrixXd S = PsdFactor(s.U);
-    MatrixXd T = MatrixXd::Identity(S.cols(), S.cols());
-    T.noalias() += S.transpose() * N * S;
-    Eigen::LLT<MatrixXd> tl(T);
-    if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
-    FcT = tl.matrixL().solve(S.transpose());  // k x r: Fc^T
-    g.C1.noalias() = FcT.transpose() * FcT;
-    if (est) {
-      v.noalias() = g.C1 * w;  // mu_u = C_1 Y^T nu (after eq. (17), -C_3 = C_1)
-      *est->mu_u = v;
-    }
-    // Pass 2, per chunk: W^T = Fc^T E^T (one GEMM), P_i += W_i W_i^T; with the estimate,
-    // x_i += J_i nu_i - E_i mu_u (eq. (17): K = blockdiag(J) - E C_1 Y^T).
-    const Index k = FcT.rows();
-    Wt.resize(k, chunk * c);
-    for (Index i0 = 0; i0 < n; i0 += chunk) {
-      const Index nb = std::min(chunk, n - i0);
-      const double* et = nullptr;
-      if (store_gain) {
-        et = g.Et.data() + i0 * c * r;
-      } else {
-        TransposeRows(s.G, i0 * c, nb * c, Gt.data());
-        CouplingEt<decltype(C)::value, decltype(D)::value>(
-            c, d, r, nb, s.H.data() + i0 * d * c, g.J.data() + i0 * c * d, Gt.data(), hg.data(), Et_chunk.data());
-        et = Et_chunk.data();
-      }
-      const Eigen::Map<const MatrixXd> Etc(et, r, nb * c);
-      Wt.leftCols(nb * c).noalias() = FcT * Etc;
-      double* P = out.P_filt.data() + i0 * c * c;
-      if (c <= 4) {
-        CouplingPass2Strided(c, k, nb, Wt.data(), P);
-      } else {
-        CouplingPass2<Eigen::Dynamic>(c, k, nb, Wt.data(), P);
-      }
-      if (est) {
-        add_jnu(i0, nb);
-        Eigen::Map<VectorXd>(est->x + i0 * c, nb * c).noalias() -= Etc.transpose() * v;
-      }
-    }
-  };
-  using One = std::integral_constant<int, 1>;
-  using Two = std::integral_constant<int, 2>;
-  using Dyn = std::integral_constant<int, Eigen::Dynamic>;
-  if (c == 2 && d == 1) {
-    passes(Two{}, One{});
-  } else if (c == 1 && d == 1) {
-    passes(One{}, One{});
-  } else if (c == 2 && d == 2) {
-    passes(Two{}, Two{});
-  } else {
-    passes(Dyn{}, Dyn{});
-  }
+  detail::BlockDiagonalPass2(s, FcT, 0, n, est ? est->nu : nullptr, est ? &v : nullptr, est ? est->x : nullptr, &ws,
+                             &out);
 }
 
 }  // namespace
@@ -942,84 +855,130 @@ CoupledTrajectory SimulateCoupled(const CoupledSystem& system, int steps, std::u
 
 namespace kfx::detail {
 
-void BlockDiagonalResize(const CoupledStep& s, BlockDiagonalCovarianceStep* out) {
+namespace {
+template <typename Body>
+void DispatchShapes(Index c, Index d, Body&& body) {
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  using Dyn = std::integral_constant<int, Eigen::Dynamic>;
+  if (c == 2 && d == 1) {
+    body(Two{}, One{});
+  } else if (c == 1 && d == 1) {
+    body(One{}, One{});
+  } else if (c == 2 && d == 2) {
+    body(Two{}, Two{});
+  } else {
+    body(Dyn{}, Dyn{});
+  }
+}
+}  // namespace
+
+void BlockDiagonalResize(const CoupledStep& s, bool store_gain, BlockDiagonalCovarianceStep* out) {
   const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
   out->P_filt.resize(c, n * c);
   out->gain.J.resize(c, n * d);
-  out->gain.Yt.resize(r, n * d);
-  out->gain.Et.resize(r, n * c);
+  out->gain.Yt.resize(r, store_gain ? n * d : 0);
+  out->gain.Et.resize(r, store_gain ? n * c : 0);
 }
 
-void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Index i1, BlockDiagonalWorkspace* w,
-                        BlockDiagonalCovarianceStep* out, MatrixXd* N) {
+void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Index i1, const double* nu,
+                        BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out, MatrixXd* N, VectorXd* ytnu) {
   const Index c = s.c(), d = s.d(), r = s.r();
   BlockDiagonalGain& g = out->gain;
   if (r == 0) {
     SubsystemKalmanSteps(s, Pp, s.V, i0, i1, nullptr, g.J, out->P_filt);
     return;
   }
+  const bool store_gain = g.Et.cols() > 0;
   const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
   if (w->Gt.rows() != r || w->Gt.cols() < chunk * c) w->Gt.resize(r, chunk * c);
   if (w->Zt.rows() != r || w->Zt.cols() < chunk * d) w->Zt.resize(r, chunk * d);
   w->hg.resize(r, d);
   if (w->rinv.size() < chunk * d * d) w->rinv.resize(chunk * d * d);
-  auto pass1 = [&](auto C, auto D) {
+  if (nu && w->rnu.size() < chunk * d) w->rnu.resize(chunk * d);
+  DispatchShapes(c, d, [&](auto C, auto D) {
     for (Index b0 = i0; b0 < i1; b0 += chunk) {
       const Index nb = std::min(chunk, i1 - b0);
       SubsystemKalmanSteps(s, Pp, s.V, b0, b0 + nb, w->rinv.data(), g.J, out->P_filt);
       TransposeRows(s.G, b0 * c, nb * c, w->Gt.data());
+      double* yt = store_gain ? g.Yt.data() + b0 * d * r : nullptr;
+      double* et = store_gain ? g.Et.data() + b0 * c * r : nullptr;
       if (d == 1) {
         CouplingPass1ScalarMeasurement(c, r, nb, s.H.data() + b0 * c, g.J.data() + b0 * c, w->rinv.data(), w->Gt.data(),
-                                       w->Zt.data(), g.Yt.data() + b0 * r, g.Et.data() + b0 * c * r);
+                                       w->Zt.data(), yt, et);
       } else {
-        CouplingPass1<decltype(C)::value, decltype(D)::value>(
-            c, d, r, nb, s.H.data() + b0 * d * c, g.J.data() + b0 * c * d, w->rinv.data(), w->Gt.data(), w->hg.data(),
-            w->Zt.data(), g.Yt.data() + b0 * d * r, g.Et.data() + b0 * c * r);
+        CouplingPass1<decltype(C)::value, decltype(D)::value>(c, d, r, nb, s.H.data() + b0 * d * c,
+                                                              g.J.data() + b0 * c * d, w->rinv.data(), w->Gt.data(),
+                                                              w->hg.data(), w->Zt.data(), yt, et);
       }
       N->selfadjointView<Eigen::Lower>().rankUpdate(w->Zt.leftCols(nb * d));
+      if (nu) {  // Y^T nu = Z^T (R_c^{-T} nu)
+        for (Index l = 0; l < nb; ++l) {
+          const Eigen::Map<const MatrixXd> ri(w->rinv.data() + l * d * d, d, d);
+          w->rnu.segment(l * d, d).noalias() = ri.transpose() * Eigen::Map<const VectorXd>(nu + (b0 + l) * d, d);
+        }
+        ytnu->noalias() += w->Zt.leftCols(nb * d) * w->rnu.head(nb * d);
+      }
     }
-  };
-  using One = std::integral_constant<int, 1>;
-  using Two = std::integral_constant<int, 2>;
-  using Dyn = std::integral_constant<int, Eigen::Dynamic>;
-  if (c == 2 && d == 1) {
-    pass1(Two{}, One{});
-  } else if (c == 1 && d == 1) {
-    pass1(One{}, One{});
-  } else if (c == 2 && d == 2) {
-    pass1(Two{}, Two{});
-  } else {
-    pass1(Dyn{}, Dyn{});
-  }
+  });
 }
 
 MatrixXd BlockDiagonalFactor(const MatrixXd& U, const MatrixXd& N, MatrixXd* C1) {
+  // C_1 = (U^{-1} + N)^{-1} (eq. (11)) without inverting U (U may be singular, even 0):
+  // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = Fc Fc^T, Fc = S L^{-T}, (I + S^T N S) = L L^T.
   const MatrixXd S = PsdFactor(U);
   MatrixXd T = MatrixXd::Identity(S.cols(), S.cols());
   T.noalias() += S.transpose() * N * S;
   Eigen::LLT<MatrixXd> tl(T);
   if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
-  MatrixXd FcT = tl.matrixL().solve(S.transpose());
+  MatrixXd FcT = tl.matrixL().solve(S.transpose());  // k x r: Fc^T
   C1->noalias() = FcT.transpose() * FcT;
   return FcT;
 }
 
-void BlockDiagonalPass2(const MatrixXd& FcT, Index i0, Index i1, BlockDiagonalWorkspace* w,
-                        BlockDiagonalCovarianceStep* out) {
-  const Index c = out->P_filt.rows(), k = FcT.rows();
-  if (FcT.cols() == 0) return;
+void BlockDiagonalPass2(const CoupledStep& s, const MatrixXd& FcT, Index i0, Index i1, const double* nu,
+                        const VectorXd* v, double* x, BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out) {
+  const Index c = s.c(), d = s.d(), r = s.r(), k = FcT.rows();
+  BlockDiagonalGain& g = out->gain;
+  const bool store_gain = g.Et.cols() > 0;
   const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
-  if (w->Wt.rows() != k || w->Wt.cols() < chunk * c) w->Wt.resize(k, chunk * c);
-  for (Index b0 = i0; b0 < i1; b0 += chunk) {
-    const Index nb = std::min(chunk, i1 - b0);
-    w->Wt.leftCols(nb * c).noalias() = FcT * out->gain.Et.middleCols(b0 * c, nb * c);
-    double* P = out->P_filt.data() + b0 * c * c;
-    if (c <= 4) {
-      CouplingPass2Strided(c, k, nb, w->Wt.data(), P);
-    } else {
-      CouplingPass2<Eigen::Dynamic>(c, k, nb, w->Wt.data(), P);
+  if (x && w->jnu.size() < chunk * c) w->jnu.resize(chunk * c);
+  if (r > 0) {
+    if (w->Wt.rows() != k || w->Wt.cols() < chunk * c) w->Wt.resize(k, chunk * c);
+    if (!store_gain) {
+      if (w->Gt.rows() != r || w->Gt.cols() < chunk * c) w->Gt.resize(r, chunk * c);
+      if (w->Et.rows() != r || w->Et.cols() < chunk * c) w->Et.resize(r, chunk * c);
+      w->hg.resize(r, d);
     }
   }
+  DispatchShapes(c, d, [&](auto C, auto D) {
+    for (Index b0 = i0; b0 < i1; b0 += chunk) {
+      const Index nb = std::min(chunk, i1 - b0);
+      if (x) {  // x_i += J_i nu_i
+        BlockRowsTimes(g.J, d, b0, nb, nu + b0 * d, nb * d, w->jnu.data(), nb * c, 1);
+        Eigen::Map<VectorXd>(x + b0 * c, nb * c) += w->jnu.head(nb * c);
+      }
+      if (r == 0) continue;
+      const double* et = nullptr;
+      if (store_gain) {
+        et = g.Et.data() + b0 * c * r;
+      } else {
+        TransposeRows(s.G, b0 * c, nb * c, w->Gt.data());
+        CouplingEt<decltype(C)::value, decltype(D)::value>(
+            c, d, r, nb, s.H.data() + b0 * d * c, g.J.data() + b0 * c * d, w->Gt.data(), w->hg.data(), w->Et.data());
+        et = w->Et.data();
+      }
+      const Eigen::Map<const MatrixXd> Etc(et, r, nb * c);
+      w->Wt.leftCols(nb * c).noalias() = FcT * Etc;
+      double* P = out->P_filt.data() + b0 * c * c;
+      if (c <= 4) {
+        CouplingPass2Strided(c, k, nb, w->Wt.data(), P);
+      } else {
+        CouplingPass2<Eigen::Dynamic>(c, k, nb, w->Wt.data(), P);
+      }
+      if (x) Eigen::Map<VectorXd>(x + b0 * c, nb * c).noalias() -= Etc.transpose() * *v;  // - E_i mu_u
+    }
+  });
 }
 
 }  // namespace kfx::detail

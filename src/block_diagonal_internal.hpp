@@ -16,21 +16,27 @@ namespace kfx::detail {
 
 /// Scratch buffers of the passes (resized on first use; reuse across steps avoids allocation).
 struct BlockDiagonalWorkspace {
-  Eigen::MatrixXd Gt, Zt, hg, Wt;
-  Eigen::VectorXd rinv;
+  Eigen::MatrixXd Gt, Zt, hg, Wt, Et;
+  Eigen::VectorXd rinv, rnu, jnu;
 };
 
-/// Sizes out->P_filt, out->gain.J, Et, Yt for s (keeps the storage when the sizes agree).
-void BlockDiagonalResize(const CoupledStep& s, BlockDiagonalCovarianceStep* out);
-/// Pass 1 over subsystems [i0, i1) of s; adds Z^T Z of the range to the lower triangle of N (r x r).
-/// For r = 0 only the per-subsystem Kalman steps. Shapes must have been checked by the caller.
+/// Sizes out->P_filt and out->gain.J for s, and E^T, Y^T when store_gain (else they get 0 columns and
+/// pass 2 recomputes E from G). Keeps the storage when the sizes agree.
+void BlockDiagonalResize(const CoupledStep& s, bool store_gain, BlockDiagonalCovarianceStep* out);
+/// Pass 1 over subsystems [i0, i1) of s: J, P = L - J H L, (E^T, Y^T when stored); adds Z^T Z of the
+/// range to the lower triangle of N (r x r) and, when nu (the innovation, length n d) is given,
+/// Y^T nu of the range to *ytnu. For r = 0 only the per-subsystem Kalman steps. Shapes must have been
+/// checked by the caller.
 void BlockDiagonalPass1(const CoupledStep& s, const Eigen::MatrixXd& P_prev_blocks, Eigen::Index i0, Eigen::Index i1,
-                        BlockDiagonalWorkspace* work, BlockDiagonalCovarianceStep* out, Eigen::MatrixXd* N);
+                        const double* nu, BlockDiagonalWorkspace* work, BlockDiagonalCovarianceStep* out,
+                        Eigen::MatrixXd* N, Eigen::VectorXd* ytnu);
 /// From the full symmetric N: C_1 into *C1 and returns Fc^T (k x r, C_1 = Fc Fc^T, k = rank of U).
 /// @throws kfx::NumericalError if I + S^T N S is not positive definite.
 Eigen::MatrixXd BlockDiagonalFactor(const Eigen::MatrixXd& U, const Eigen::MatrixXd& N, Eigen::MatrixXd* C1);
-/// Pass 2 over subsystems [i0, i1): P_i += W_i W_i^T.
-void BlockDiagonalPass2(const Eigen::MatrixXd& FcT, Eigen::Index i0, Eigen::Index i1, BlockDiagonalWorkspace* work,
+/// Pass 2 over subsystems [i0, i1): P_i += W_i W_i^T (W^T = Fc^T E^T, E^T stored or recomputed from
+/// G, H, J) and, when x is given (F x_prev on entry), x_i += J_i nu_i - E_i v with v = mu_u = C_1 Y^T nu.
+void BlockDiagonalPass2(const CoupledStep& s, const Eigen::MatrixXd& FcT, Eigen::Index i0, Eigen::Index i1,
+                        const double* nu, const Eigen::VectorXd* v, double* x, BlockDiagonalWorkspace* work,
                         BlockDiagonalCovarianceStep* out);
 
 }  // namespace kfx::detail

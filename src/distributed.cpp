@@ -195,27 +195,22 @@ void CoupledFilterSlice::Begin(const CoupledStep& s, const VectorXd& y) {
   }
   partial_.assign(static_cast<size_t>(2 * PartialPairs(r)), 0.0);
   w.U = s.U;
-  detail::BlockDiagonalResize(s, &w.st);
+  detail::BlockDiagonalResize(s, /*store_gain=*/false, &w.st);
+  step_ = &s;
   double* pN = partial_.data();
   double* pY = partial_.data() + 2 * PackedSize(r);
-  std::vector<double> ytnu(static_cast<size_t>(r));
+  VectorXd ytnu(r);
   // One granule at a time, at the same global positions on every partition.
   for (Index b0 = 0; b0 < n; b0 += granule_) {
     const Index b1 = std::min(n, b0 + granule_);
     w.Ng.setZero(r, r);
-    detail::BlockDiagonalPass1(s, P_, b0, b1, &w.ws, &w.st, &w.Ng);
+    ytnu.setZero(r);
+    detail::BlockDiagonalPass1(s, P_, b0, b1, nu_.data(), &w.ws, &w.st, &w.Ng, &ytnu);
     Index q = 0;
     for (Index j = 0; j < r; ++j) {
       for (Index i = j; i < r; ++i, ++q) CompensatedAccumulate(w.Ng(i, j), pN + 2 * q);
     }
-    std::fill(ytnu.begin(), ytnu.end(), 0.0);
-    const double* Yt = w.st.gain.Yt.data();
-    for (Index col = b0 * d; col < b1 * d; ++col) {
-      const double v = nu_(col);
-      const double* yc = Yt + col * r;
-      for (Index t = 0; t < r; ++t) ytnu[static_cast<size_t>(t)] += yc[t] * v;
-    }
-    for (Index t = 0; t < r; ++t) CompensatedAccumulate(ytnu[static_cast<size_t>(t)], pY + 2 * t);
+    for (Index t = 0; t < r; ++t) CompensatedAccumulate(ytnu(t), pY + 2 * t);
   }
   begun_ = true;
 }
@@ -225,7 +220,7 @@ void CoupledFilterSlice::Finish() {
   if (!begun_) throw Error("Finish: expected a Begin first");
   begun_ = false;
   Work& w = *work_;
-  const Index n = count(), r = w.r, d = w.d;
+  const Index n = count(), r = w.r;
   if (static_cast<Index>(partial_.size()) != 2 * PartialPairs(r)) {
     throw Error("partial: expected " + std::to_string(2 * PartialPairs(r)) + " numbers, got " +
                 std::to_string(partial_.size()));
@@ -241,17 +236,19 @@ void CoupledFilterSlice::Finish() {
   VectorXd ytnu(r);
   for (Index t = 0; t < r; ++t) ytnu(t) = CompensatedValue(partial_.data() + 2 * (PackedSize(r) + t));
   MatrixXd C1(r, r);
-  MatrixXd FcT;
+  MatrixXd FcT(0, r);
   if (r > 0) FcT = detail::BlockDiagonalFactor(w.U, N, &C1);
-  for (Index b0 = 0; b0 < n && r > 0; b0 += granule_) {
-    detail::BlockDiagonalPass2(FcT, b0, std::min(n, b0 + granule_), &w.ws, &w.st);
-  }
+  const VectorXd v = C1 * ytnu;  // mu_u
   if (n > 0) {
-    x_ = xp_ + BlockDiagonalApply(w.st.gain.J, d, nu_);
-    if (r > 0) x_.noalias() -= w.st.gain.Et.transpose() * (C1 * ytnu);
+    if (step_ == nullptr) throw Error("Finish: the step passed to Begin is gone");
+    x_ = xp_;  // pass 2 adds J nu - E mu_u granule by granule
+    for (Index b0 = 0; b0 < n; b0 += granule_) {
+      detail::BlockDiagonalPass2(*step_, FcT, b0, std::min(n, b0 + granule_), nu_.data(), &v, x_.data(), &w.ws, &w.st);
+    }
     P_.swap(w.st.P_filt);
   }
-  mu_u_ = C1 * ytnu;
+  step_ = nullptr;
+  mu_u_ = v;
   sigma_u_ = C1;
 }
 

@@ -178,9 +178,8 @@ void WriteCsv(const std::string& path, const TimeSeries& data, const std::vector
   }
   if (data.cols() == 0 && data.rows() > 0) Fail(path, "data: expected at least one column for a CSV file");
 
-  errno = 0;
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) Fail(path, "cannot open file for writing" + ErrnoDetail());
+  AtomicOutputFile file(path);
+  std::ofstream& out = file.stream();
   std::string text;
   if (!column_names.empty()) {
     for (std::size_t j = 0; j < column_names.size(); ++j) text += (j > 0 ? "," : "") + Trim(column_names[j]);
@@ -198,8 +197,7 @@ void WriteCsv(const std::string& path, const TimeSeries& data, const std::vector
     }
   }
   out << text;
-  out.close();
-  if (!out) Fail(path, "cannot write file" + ErrnoDetail());
+  file.Commit();
 }
 
 }  // namespace

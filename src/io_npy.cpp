@@ -3,10 +3,14 @@
 //
 // Safety: nothing is allocated from a size found in a header before it has been checked against the
 // size of the file, so a corrupt or hostile header cannot make the reader allocate unbounded memory.
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -480,6 +484,39 @@ std::ifstream OpenNpy(const std::string& path) {
 
 }  // namespace
 
+AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)) {
+  static std::atomic<unsigned long> counter{0};
+  temp_ = path_ + ".tmp-" + std::to_string(static_cast<long>(::getpid())) + "-" + std::to_string(counter++);
+  errno = 0;
+  out_.open(temp_, std::ios::binary | std::ios::trunc);
+  if (!out_) Fail(path_, "cannot open file for writing" + OpenErrorDetail());
+}
+
+AtomicOutputFile::~AtomicOutputFile() {
+  if (committed_) return;
+  if (out_.is_open()) out_.close();
+  std::remove(temp_.c_str());
+}
+
+void AtomicOutputFile::Commit() {
+  errno = 0;
+  out_.close();
+  if (!out_) {
+    const std::string detail = OpenErrorDetail();
+    std::remove(temp_.c_str());
+    committed_ = true;
+    Fail(path_, "cannot write file" + detail);
+  }
+  errno = 0;
+  if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
+    const std::string detail = OpenErrorDetail();
+    std::remove(temp_.c_str());
+    committed_ = true;
+    Fail(path_, "cannot rename the written file into place" + detail);
+  }
+  committed_ = true;
+}
+
 NpyArray ReadNpy(const std::string& path) {
   std::ifstream in = OpenNpy(path);
   const NpyHeader h = ReadNpyHeader(in, path);
@@ -562,9 +599,8 @@ void WriteNpy(const std::string& path, const std::vector<std::int64_t>& shape, c
   const std::uint64_t header_length = header.size();
   for (std::size_t i = 0; i < length_bytes; ++i) preamble += static_cast<char>((header_length >> (8 * i)) & 0xff);
 
-  errno = 0;
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) Fail(path, "cannot open file for writing" + OpenErrorDetail());
+  AtomicOutputFile file(path);
+  std::ofstream& out = file.stream();
   WriteAll(out, path, preamble.data(), preamble.size());
   WriteAll(out, path, header.data(), header.size());
   std::vector<unsigned char> chunk;
@@ -580,8 +616,7 @@ void WriteNpy(const std::string& path, const std::vector<std::int64_t>& shape, c
     }
     WriteAll(out, path, reinterpret_cast<const char*>(chunk.data()), chunk.size());
   }
-  out.close();
-  if (!out) Fail(path, "cannot write file" + OpenErrorDetail());
+  file.Commit();
 }
 
 Eigen::MatrixXd ReadNpyMatrix(const std::string& path) {

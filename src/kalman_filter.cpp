@@ -4,6 +4,7 @@
 
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
+#include "robust_filter.hpp"
 
 namespace kfx {
 
@@ -93,10 +94,16 @@ bool KalmanFilterOptions::IsValid(std::string* error) const {
     if (error) *error = "update_form: expected kJoseph or kStandard";
     return false;
   }
+  if (form != FilterForm::kConventional && form != FilterForm::kSquareRoot && form != FilterForm::kUD &&
+      form != FilterForm::kInformation) {
+    if (error) *error = "form: expected kConventional, kSquareRoot, kUD or kInformation";
+    return false;
+  }
   return true;
 }
 
 Estimate Predict(const Estimate& e, const ModelStep& s, const KalmanFilterOptions& options) {
+  if (options.form != FilterForm::kConventional) return detail::FactoredPredict(e, s, options);
   const Eigen::Index n = s.A.rows();
   CheckEstimate(e, n, "estimate");
   Estimate out;
@@ -115,6 +122,7 @@ Estimate Predict(const Estimate& e, const ModelStep& s, const KalmanFilterOption
 
 UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
                     const KalmanFilterOptions& options) {
+  if (options.form != FilterForm::kConventional) return detail::FactoredUpdate(prior, s, y, options);
   const Eigen::Index n = s.A.rows(), m = s.C.rows();
   CheckEstimate(prior, n, "prior");
   if (y.size() != m) {
@@ -187,6 +195,8 @@ UpdateResult KalmanFilter::Step(const Eigen::Ref<const Eigen::VectorXd>& y) {
 FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options) {
   std::string why;
   if (!options.filter.IsValid(&why)) throw Error("options.filter: " + why);
+  if (options.filter.form != FilterForm::kConventional) return detail::FactoredRunFilter(model, y, options);
+  detail::HealthMonitor monitor(options.monitor_health);
   const Eigen::Index n = model.state_dim(), m = model.meas_dim();
   if (y.cols() != m) {
     throw Error("y: expected " + std::to_string(m) + (m == 1 ? " column" : " columns") +
@@ -267,6 +277,8 @@ FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOpti
     for (size_t i = 0; i < u.observed.size(); ++i) run.innovations(k - 1, u.observed[i]) = u.innovation(i);
     run.num_observed[static_cast<size_t>(k - 1)] = static_cast<int>(u.observed.size());
     run.log_likelihood_terms(k - 1) = u.log_likelihood;
+    detail::RequireFiniteStep(k, u.estimate.x, u.estimate.P, u.log_likelihood);
+    monitor.Observe(k, u.estimate.P, u.innovation, u.innovation_cov);
     if (fast && static_cast<Eigen::Index>(u.observed.size()) == m &&
         (u.estimate.P - e.P).norm() <= tol * u.estimate.P.norm()) {
       frozen = true;
@@ -283,6 +295,7 @@ FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOpti
     if (options.progress) options.progress(k, T);
   }
   run.log_likelihood = run.log_likelihood_terms.sum();
+  run.health = monitor.Finish();
   return run;
 }
 
@@ -336,6 +349,7 @@ SmootherRun RtsSmooth(const Model& model, const FilterRun& run) {
 KalmanSchedule ComputeKalmanSchedule(const Model& model, int steps, const KalmanFilterOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("options: " + why);
+  if (options.form != FilterForm::kConventional) return detail::FactoredKalmanSchedule(model, steps, options);
   const int T = model.ResolveSteps(steps);
   KalmanSchedule sch;
   sch.filter_gain.resize(static_cast<size_t>(T) + 1);

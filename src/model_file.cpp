@@ -509,16 +509,9 @@ class ModelFileWriter {
     json.erase(json.size() - 2);  // the last ",\n"
     json += "\n}\n";
 
-    errno = 0;
-    std::ofstream out(path_, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      const int e = errno;
-      throw Error(path_ + ": cannot open file for writing" +
-                  (e != 0 ? std::string(" (") + std::strerror(e) + ")" : ""));
-    }
-    out << json;
-    out.close();
-    if (!out) throw Error(path_ + ": cannot write file");
+    AtomicOutputFile file(path_);
+    file.stream() << json;
+    file.Commit();
   }
 
  private:

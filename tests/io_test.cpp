@@ -249,5 +249,41 @@ TEST_F(TimeSeriesIoTest, FormatIsChosenByExtension) {
   ExpectReadError(Write("wrong.npy", "1,2\n"), {"not a .npy file"});
 }
 
+using AtomicOutputTest = IoTestBase;
+
+// Outputs go to a temporary name and are renamed on success (issue 11): a failed or abandoned write
+// leaves the previous file untouched and no temporary file behind.
+TEST_F(AtomicOutputTest, AbandonedWriteLeavesOldFileAndNoTemporary) {
+  const std::string path = Write("y.csv", "old\n");
+  {
+    AtomicOutputFile file(path);
+    file.stream() << "half-written";
+    EXPECT_TRUE(fs::exists(file.temp_path()));
+    EXPECT_EQ(Read(path), "old\n");  // not visible under the final name before Commit()
+  }
+  EXPECT_EQ(Read(path), "old\n");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
+}
+
+TEST_F(AtomicOutputTest, CommitReplacesAndWritersLeaveNoTemporary) {
+  const std::string path = Write("y.csv", "old\n");
+  WriteTimeSeries(path, TimeSeries::Ones(2, 1));
+  EXPECT_EQ(Read(path), "1\n1\n");
+  WriteTimeSeries(Path("y.npy"), TimeSeries::Ones(2, 1));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 2);
+}
+
+TEST_F(AtomicOutputTest, FailedRenameIsAnErrorAndLeavesNoTemporary) {
+  fs::create_directories(dir_ / "x.npy" / "inside");  // a non-empty directory where the file should go
+  try {
+    WriteTimeSeries(Path("x.npy"), TimeSeries::Ones(2, 1));
+    ADD_FAILURE() << "expected kfx::Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(Path("x.npy")), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
+  EXPECT_THROW({ AtomicOutputFile f(Path("no-such-dir/y.csv")); }, Error);
+}
+
 }  // namespace
 }  // namespace kfx

@@ -14,19 +14,6 @@
 
 namespace kfx::cli {
 
-void AddBlockDiagOptions(CLI::App* cmd, BlockDiagArgs* a) {
-  cmd->add_option("model", a->model, "Coupled model file (JSON, docs/formats.md \"Coupled model\")")->required();
-  cmd->add_option("--data", a->data, "Measurements .npy of shape (T, n d); each rank reads its columns")->required();
-  cmd->add_option("-o,--out", a->out, "Output directory: metadata.json, x_filt/P_filt per slice, coupling_*")
-      ->required();
-  cmd->add_option("--filter", a->filter, "block-diagonal (default) or banded")
-      ->check(CLI::IsMember({"block-diagonal", "banded"}));
-  cmd->add_option("--granule", a->granule, "Subsystems per partition unit (default 1024)")
-      ->check(CLI::Range(1L, 1000000000L));
-  cmd->add_option("--steps", a->steps, "Number of steps (default: all rows of the data)")
-      ->check(CLI::Range(0, 2000000000));
-}
-
 namespace {
 
 BlockDiagJob MakeJob(const BlockDiagArgs& a) {

@@ -1,6 +1,5 @@
 // kfx — command-line front end. Thin: parse, call the library, print. Any error becomes one line on
 // stderr and exit code 2 (docs in README.md; file formats in docs/formats.md).
-#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -13,6 +12,7 @@
 #include <sstream>
 
 #include "blockdiag.hpp"
+#include "cli_args.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
@@ -39,8 +39,9 @@ void MakeDir(const std::string& dir) {
 std::string Join(const std::string& dir, const std::string& name) { return (fs::path(dir) / name).string(); }
 
 void WriteText(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  if (!out || !(out << text << "\n")) throw Error(path + ": cannot write file");
+  AtomicOutputFile file(path);
+  file.stream() << text << "\n";
+  file.Commit();
 }
 
 std::string Fmt(const MatrixXd& m) {
@@ -74,13 +75,6 @@ nlohmann::ordered_json ToJson(const MatrixXd& m) {
 }
 
 // ---- simulate ------------------------------------------------------------------------------
-struct SimulateArgs {
-  std::string model, out;
-  int steps = 100;
-  std::uint64_t seed = 1;
-  bool csv = false;
-};
-
 int RunSimulate(const SimulateArgs& a) {
   const Model model = LoadModel(a.model);
   const Trajectory tr = Simulate(model, a.steps, a.seed);
@@ -96,17 +90,17 @@ int RunSimulate(const SimulateArgs& a) {
 }
 
 // ---- filter / smooth -----------------------------------------------------------------------
-struct FilterArgs {
-  std::string model, data, out;
-  bool csv = false;
-};
-
 int RunFilterCommand(const FilterArgs& a, bool smooth) {
   const Model model = LoadModel(a.model);
   const TimeSeries y = ReadTimeSeries(a.data);
   ProgressLine progress(smooth ? "smooth" : "filter");
   FilterRunOptions opt;
   opt.store_covariances = smooth;
+  opt.monitor_health = a.health;
+  if (a.form == "standard") opt.filter.update_form = CovarianceUpdateForm::kStandard;
+  if (a.form == "sqrt") opt.filter.form = FilterForm::kSquareRoot;
+  if (a.form == "ud") opt.filter.form = FilterForm::kUD;
+  if (a.form == "information") opt.filter.form = FilterForm::kInformation;
   opt.progress = progress.callback();
   const FilterRun run = RunFilter(model, y, opt);
   progress.Finish();
@@ -125,6 +119,22 @@ int RunFilterCommand(const FilterArgs& a, bool smooth) {
   summary["meas_dim"] = model.meas_dim();
   summary["missing_entries"] = missing;
   summary["log_likelihood"] = run.log_likelihood;
+  summary["form"] = a.form;
+  if (a.health) {
+    const FilterHealth& h = run.health;
+    nlohmann::ordered_json hj;
+    hj["healthy"] = h.healthy();
+    hj["max_asymmetry"] = h.max_asymmetry;
+    hj["min_eigenvalue"] = h.min_eigenvalue;
+    hj["min_eigenvalue_step"] = h.min_eigenvalue_step;
+    hj["cholesky_failures"] = h.cholesky_failures;
+    hj["first_cholesky_failure"] = h.first_cholesky_failure;
+    hj["nis_mean"] = h.nis_dof > 0 ? nlohmann::ordered_json(h.nis_mean) : nlohmann::ordered_json();
+    hj["nis_dof"] = h.nis_dof;
+    hj["nis_band_99"] = {h.nis_lower, h.nis_upper};
+    hj["nis_consistent"] = h.nis_consistent;
+    summary["health"] = hj;
+  }
   if (!smooth) {
     write("x_filt", run.x_filt);
     write("P_filt_diag", run.P_filt_diag);
@@ -147,13 +157,6 @@ int RunFilterCommand(const FilterArgs& a, bool smooth) {
 }
 
 // ---- analyze -------------------------------------------------------------------------------
-struct AnalyzeArgs {
-  std::string model, design, json;
-  int monte_carlo = 0;
-  int steps = 50;
-  std::uint64_t seed = 1;
-};
-
 int RunAnalyze(const AnalyzeArgs& a) {
   const Model truth = LoadModel(a.model);
   const Model design = a.design.empty() ? truth : LoadModel(a.design);
@@ -257,11 +260,6 @@ int RunAnalyze(const AnalyzeArgs& a) {
 }
 
 // ---- mismatch ------------------------------------------------------------------------------
-struct MismatchArgs {
-  std::string model, ranges, json;
-  bool no_refine = false;
-};
-
 // "dA(1,2) = +0.1, dR(1,1) = -0.5" (1-based, nonzero entries; Delta = model - true).
 std::string ErrorsString(const ModelingErrors& e) {
   std::ostringstream os;
@@ -375,11 +373,6 @@ int RunMismatch(const MismatchArgs& a) {
 }
 
 // ---- reproduce -----------------------------------------------------------------------------
-struct ReproduceArgs {
-  std::string paper, json, out;
-  bool quick = false;
-};
-
 // The figures of `reproduce --out DIR` are drawn by kfx.plots (python/kfx/plots.py, matplotlib) when a
 // Python with matplotlib is there; otherwise the CLI says so and leaves the CSV data. Interpreter:
 // $KFX_PYTHON, else the one CMake chose (Debian's /usr/bin/python3); script: $KFX_PLOTS, else the
@@ -455,94 +448,18 @@ int RunReproduce(const ReproduceArgs& a) {
 }
 
 int Main(int argc, char** argv) {
-  CLI::App app{"kfx: Kalman filtering for large and infinite-dimensional linear systems"};
-  app.set_version_flag("--version", std::string("kfx ") + KFX_VERSION);
-  app.require_subcommand(1);
-
-  SimulateArgs sim;
-  auto* c_sim = app.add_subcommand("simulate", "Simulate states and measurements of a model");
-  c_sim->add_option("model", sim.model, "Model file (JSON, docs/formats.md)")->required();
-  c_sim->add_option("--steps", sim.steps, "Number of steps T")->check(CLI::Range(0, 2000000000));
-  c_sim->add_option("--seed", sim.seed, "Random seed");
-  c_sim->add_option("-o,--out", sim.out, "Output directory (x.npy: (T+1, n), y.npy: (T, m))")->required();
-  c_sim->add_flag("--csv", sim.csv, "Write CSV instead of .npy");
-
-  FilterArgs flt;
-  auto* c_flt = app.add_subcommand("filter", "Kalman filter: estimates, covariance diagonals, log-likelihood");
-  c_flt->add_option("model", flt.model, "Model file")->required();
-  c_flt->add_option("--data", flt.data, "Measurements (T, m) as .npy or .csv; NaN = missing")->required();
-  c_flt->add_option("-o,--out", flt.out, "Output directory")->required();
-  c_flt->add_flag("--csv", flt.csv, "Write CSV instead of .npy");
-
-  FilterArgs smo;
-  auto* c_smo = app.add_subcommand("smooth", "Rauch-Tung-Striebel smoother");
-  c_smo->add_option("model", smo.model, "Model file")->required();
-  c_smo->add_option("--data", smo.data, "Measurements (T, m) as .npy or .csv; NaN = missing")->required();
-  c_smo->add_option("-o,--out", smo.out, "Output directory")->required();
-  c_smo->add_flag("--csv", smo.csv, "Write CSV instead of .npy");
-
-  AnalyzeArgs ana;
-  auto* c_ana =
-      app.add_subcommand("analyze",
-                         "Steady state (DARE): covariances, both gains, closed-loop spectral radius, residual; "
-                         "optionally exact vs Monte Carlo MSE");
-  c_ana->add_option("model", ana.model, "True model file")->required();
-  c_ana->add_option("--design", ana.design, "Design the filter on this model instead (mismatch study)");
-  c_ana->add_option("--monte-carlo", ana.monte_carlo, "Also compare exact and Monte Carlo MSE with this many runs")
-      ->check(CLI::Range(0, 2000000000));
-  c_ana->add_option("--steps", ana.steps, "Horizon of the exact/Monte Carlo comparison")
-      ->check(CLI::Range(1, 2000000000));
-  c_ana->add_option("--seed", ana.seed, "Monte Carlo seed");
-  c_ana->add_option("--json", ana.json, "Write the results as JSON");
-
-  MismatchArgs mis;
-  auto* c_mis = app.add_subcommand(
-      "mismatch", "Robustness of a filter to model errors: worst case over error ranges and the Patel-Toda bounds");
-  c_mis->add_option("model", mis.model, "Design model file (time-invariant)")->required();
-  c_mis->add_option("--ranges", mis.ranges, "Element-wise error ranges (JSON, docs/formats.md)")->required();
-  c_mis->add_option("--json", mis.json, "Write the results as JSON");
-  c_mis->add_flag("--no-refine", mis.no_refine, "Corners only (no local refinement of the box search)");
-
-  ReproduceArgs rep;
-  auto* c_rep = app.add_subcommand("reproduce", "Put a paper's published numbers beside kfx's");
-  std::vector<std::string> choices = PaperIds();
-  choices.push_back("all");
-  c_rep
-      ->add_option("paper", rep.paper,
-                   "One of: aalto-spatial, bernstein, patel-toda, aalto-temporal, block-diagonal, all")
-      ->required()
-      ->check(CLI::IsMember(choices));
-  c_rep->add_option("--json", rep.json, "Write the items as JSON");
-  c_rep->add_option("--out", rep.out, "Directory for figures and data");
-  c_rep->add_flag("--quick", rep.quick, "Small, fast versions of the computations");
-
-  BlockDiagArgs bd;
-  auto* c_bd = app.add_subcommand(
-      "blockdiag", "Block-diagonal or banded filter of many coupled subsystems (mpirun -np N kfx blockdiag ...)");
-  AddBlockDiagOptions(c_bd, &bd);
-
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
-  } catch (const CLI::ParseError& e) {
-    std::string msg = e.what();
-    for (auto& ch : msg)
-      if (ch == '\n') ch = ' ';
-    std::fprintf(stderr, "kfx: error: %s (see kfx --help)\n", msg.c_str());
-    return 2;
-  }
-  if (c_sim->parsed()) return RunSimulate(sim);
-  if (c_flt->parsed()) return RunFilterCommand(flt, false);
-  if (c_smo->parsed()) return RunFilterCommand(smo, true);
-  if (c_ana->parsed()) return RunAnalyze(ana);
-  if (c_mis->parsed()) return RunMismatch(mis);
-  if (c_rep->parsed()) return RunReproduce(rep);
-  if (c_bd->parsed()) return RunBlockDiag(argc, argv, bd);
+  CommandLine cl;
+  std::vector<std::string> papers = PaperIds();
+  papers.push_back("all");
+  const int rc = CommandLineParser(papers).Parse(argc, argv, &cl);
+  if (rc >= 0) return rc;
+  if (cl.command == "simulate") return RunSimulate(cl.sim);
+  if (cl.command == "filter") return RunFilterCommand(cl.flt, false);
+  if (cl.command == "smooth") return RunFilterCommand(cl.smo, true);
+  if (cl.command == "analyze") return RunAnalyze(cl.ana);
+  if (cl.command == "mismatch") return RunMismatch(cl.mis);
+  if (cl.command == "reproduce") return RunReproduce(cl.rep);
+  if (cl.command == "blockdiag") return RunBlockDiag(argc, argv, cl.bd);
   return 2;
 }
 

@@ -87,6 +87,7 @@ class CoupledFilterSlice {
                      const Eigen::MatrixXd& P0_blocks);
 
   /// Local part of a step: s is the slice's step (count subsystems), y its measurements (count d).
+  /// s must stay alive until Finish (pass 2 rereads G, H from it).
   /// @throws kfx::Error on shape mismatch or NaN/Inf in y.
   void Begin(const CoupledStep& s, const Eigen::VectorXd& y);
   /// The partial sums of this slice after Begin, as (hi, lo) pairs: the packed lower triangle of N

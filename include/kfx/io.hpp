@@ -4,12 +4,35 @@
 // what was expected (never a crash on a truncated or malformed file).
 #include <Eigen/Dense>
 #include <cstdint>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "kfx/model.hpp"
 
 namespace kfx {
+
+/// An output file written under a temporary name in the same directory (path + ".tmp-<pid>-<n>")
+/// and renamed to `path` by Commit(), so that a failed or interrupted write never leaves a partial
+/// file under the final name. Destroyed without Commit(), it removes the temporary file. Every
+/// writer of kfx (WriteNpy, WriteTimeSeries, SaveModel, the CLI) writes through it.
+class AtomicOutputFile {
+ public:
+  /// @throws kfx::Error if the temporary file cannot be created.
+  explicit AtomicOutputFile(std::string path);
+  ~AtomicOutputFile();
+  AtomicOutputFile(const AtomicOutputFile&) = delete;
+  AtomicOutputFile& operator=(const AtomicOutputFile&) = delete;
+  std::ofstream& stream() { return out_; }
+  const std::string& temp_path() const { return temp_; }
+  /// Closes, checks and renames the file. @throws kfx::Error if writing or renaming failed.
+  void Commit();
+
+ private:
+  std::string path_, temp_;
+  std::ofstream out_;
+  bool committed_ = false;
+};
 
 /// A dense array read from a .npy file, converted to double, stored in C (row-major) order.
 struct NpyArray {

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "kfx/filter_health.hpp"
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
 #include "kfx/progress.hpp"
@@ -33,7 +34,18 @@ enum class CovarianceUpdateForm {
   kStandard,  ///< P - K C P (cheaper in nothing here, kept for comparison studies).
 };
 
+/// How the covariance is represented and propagated (src/robust_filter.cpp, docs/robustness.md).
+/// All forms give the same gains in exact arithmetic; they differ in rounding.
+enum class FilterForm {
+  kConventional,  ///< P itself, update by update_form (Joseph or standard). Default.
+  kSquareRoot,    ///< a square-root factor of P, propagated by QR of the pre-arrays (as SLICOT FB01QD)
+  kUD,            ///< Bierman-Thornton: P = U D U^T (Bierman update, Thornton MWGS time update)
+  kInformation,   ///< the information matrix P^{-1} (needs P0 > 0, and A_k invertible or Q_k > 0)
+};
+
 struct KalmanFilterOptions {
+  FilterForm form = FilterForm::kConventional;
+  /// Conventional form only.
   CovarianceUpdateForm update_form = CovarianceUpdateForm::kJoseph;
   /// Replace P by (P + P^T)/2 after every predict and update.
   bool symmetrize = true;
@@ -86,6 +98,9 @@ struct FilterRunOptions {
   KalmanFilterOptions filter;
   /// Keep every P_{k|k-1}, P_{k|k} (needed by the smoother; n^2 (2T + 2) doubles).
   bool store_covariances = true;
+  /// Check symmetry, definiteness (eigenvalues, Cholesky) of P_{k|k} and the NIS at every step
+  /// (O(n^3) per step) and report them in FilterRun::health.
+  bool monitor_health = false;
   ProgressCallback progress;
   /// Steady-state fast path (time-invariant models only; 0 = off, the default): once a full step
   /// changes P_{k|k} by at most this, relative in the Frobenius norm, the gain, S_k and the
@@ -107,9 +122,11 @@ struct FilterRun {
   double log_likelihood = 0.0;           ///< sum of the terms
   std::vector<int> num_observed;         ///< length T
   int steady_state_steps = 0;            ///< steps done on the frozen gain (steady_state_tolerance)
+  FilterHealth health;                   ///< filled when FilterRunOptions::monitor_health
 };
 
-/// Runs the filter over y. @throws kfx::Error on dimension mismatch / horizon exceeded.
+/// Runs the filter over y. @throws kfx::Error on dimension mismatch / horizon exceeded;
+/// kfx::NumericalError when an estimate, covariance or likelihood term is not finite.
 FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options = {});
 
 struct SmootherRun {

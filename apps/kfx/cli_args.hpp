@@ -1,0 +1,75 @@
+#pragma once
+// The kfx command line: argument structs and the parser (CLI11). Kept apart from main.cpp so that
+// the argument handling can be fuzzed without the library (fuzz/fuzz_cli.cpp).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kfx::cli {
+
+struct SimulateArgs {
+  std::string model, out;
+  int steps = 100;
+  std::uint64_t seed = 1;
+  bool csv = false;
+};
+
+struct FilterArgs {
+  std::string model, data, out;
+  bool csv = false;
+  std::string form = "joseph";  ///< joseph, standard, sqrt, ud, information
+  bool health = false;          ///< monitor health (summary.json "health")
+};
+
+struct AnalyzeArgs {
+  std::string model, design, json;
+  int monte_carlo = 0;
+  int steps = 50;
+  std::uint64_t seed = 1;
+};
+
+struct MismatchArgs {
+  std::string model, ranges, json;
+  bool no_refine = false;
+};
+
+struct ReproduceArgs {
+  std::string paper, json, out;
+  bool quick = false;
+};
+
+struct BlockDiagArgs {
+  std::string model, data, out, filter = "block-diagonal";
+  long granule = 1024;
+  int steps = -1;
+};
+
+struct CommandLine {
+  std::string command;  ///< the subcommand given
+  SimulateArgs sim;
+  FilterArgs flt, smo;
+  AnalyzeArgs ana;
+  MismatchArgs mis;
+  ReproduceArgs rep;
+  BlockDiagArgs bd;
+};
+
+/// The parser of the kfx command line (CLI11), built once and reusable: each Parse() starts from
+/// the default arguments.
+class CommandLineParser {
+ public:
+  /// `papers`: the accepted arguments of `reproduce`.
+  explicit CommandLineParser(const std::vector<std::string>& papers);
+  ~CommandLineParser();
+  CommandLineParser(const CommandLineParser&) = delete;
+  CommandLineParser& operator=(const CommandLineParser&) = delete;
+  /// Parses argv into *out. Returns -1 when out->command is to be run, otherwise the exit code:
+  /// 0 after --help / --version (printed on stdout), 2 after a usage error (one line on stderr).
+  int Parse(int argc, const char* const* argv, CommandLine* out);
+
+ private:
+  struct Impl;
+  Impl* impl_;
+};
+
+}  // namespace kfx::cli
