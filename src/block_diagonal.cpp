@@ -912,10 +912,16 @@ void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Inde
                                                               w->hg.data(), w->Zt.data(), yt, et);
       }
       N->selfadjointView<Eigen::Lower>().rankUpdate(w->Zt.leftCols(nb * d));
-      if (nu) {  // Y^T nu = Z^T (R_c^{-T} nu)
+      if (nu) {  // Y^T nu = Z^T (R_c^{-T} nu); plain loops: per-subsystem Eigen products would be BLAS calls
+        const double* ri = w->rinv.data();
+        const double* nub = nu + b0 * d;
+        double* rn = w->rnu.data();
         for (Index l = 0; l < nb; ++l) {
-          const Eigen::Map<const MatrixXd> ri(w->rinv.data() + l * d * d, d, d);
-          w->rnu.segment(l * d, d).noalias() = ri.transpose() * Eigen::Map<const VectorXd>(nu + (b0 + l) * d, d);
+          for (Index a = 0; a < d; ++a) {
+            double acc = 0.0;
+            for (Index b = 0; b < d; ++b) acc += ri[l * d * d + a * d + b] * nub[l * d + b];  // (R_c^{-1})_{ba}
+            rn[l * d + a] = acc;
+          }
         }
         ytnu->noalias() += w->Zt.leftCols(nb * d) * w->rnu.head(nb * d);
       }
