@@ -475,7 +475,8 @@ KalmanSchedule FactoredKalmanSchedule(const Model& model, int steps, const Kalma
 
 HealthMonitor::HealthMonitor(bool enabled) { h_.monitored = enabled; }
 
-void HealthMonitor::Observe(int k, const MatrixXd& P, const VectorXd& nu, const MatrixXd& S) {
+void HealthMonitor::Observe(int k, const Eigen::Ref<const MatrixXd>& P, const Eigen::Ref<const VectorXd>& nu,
+                            const Eigen::Ref<const MatrixXd>& S) {
   if (!h_.monitored) return;
   ++h_.steps;
   const double scale = P.cwiseAbs().maxCoeff();
@@ -513,7 +514,8 @@ FilterHealth HealthMonitor::Finish() const {
   return h;
 }
 
-void RequireFiniteStep(int k, const VectorXd& x, const MatrixXd& P, double log_likelihood) {
+void RequireFiniteStep(int k, const Eigen::Ref<const VectorXd>& x, const Eigen::Ref<const MatrixXd>& P,
+                       double log_likelihood) {
   if (!x.allFinite()) throw NumericalError("step " + std::to_string(k) + ": estimate x_{k|k} is not finite");
   if (!P.diagonal().allFinite() || !P.allFinite()) {
     throw NumericalError("step " + std::to_string(k) + ": covariance P_{k|k} is not finite");

@@ -24,7 +24,8 @@ class HealthMonitor {
  public:
   explicit HealthMonitor(bool enabled);
   /// Step k: filtered covariance P_{k|k}, innovation nu (observed entries) and its covariance S.
-  void Observe(int k, const Eigen::MatrixXd& P, const Eigen::VectorXd& nu, const Eigen::MatrixXd& S);
+  void Observe(int k, const Eigen::Ref<const Eigen::MatrixXd>& P, const Eigen::Ref<const Eigen::VectorXd>& nu,
+               const Eigen::Ref<const Eigen::MatrixXd>& S);
   FilterHealth Finish() const;
 
  private:
@@ -32,6 +33,7 @@ class HealthMonitor {
 };
 
 /// @throws kfx::NumericalError naming step k if x, the diagonal of P or the likelihood term is not finite.
-void RequireFiniteStep(int k, const Eigen::VectorXd& x, const Eigen::MatrixXd& P, double log_likelihood);
+void RequireFiniteStep(int k, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::MatrixXd>& P,
+                       double log_likelihood);
 
 }  // namespace kfx::detail

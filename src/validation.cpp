@@ -112,7 +112,7 @@ void RequireVector(const std::string& name, const Eigen::Ref<const Eigen::Vector
   RequireFinite(name, v);
 }
 
-void Symmetrize(Eigen::MatrixXd& m) {
+void Symmetrize(Eigen::Ref<Eigen::MatrixXd> m) {
   KFX_ASSERT(m.rows() == m.cols());
   // In place, no temporary: average each off-diagonal pair once.
   const Eigen::Index n = m.rows();

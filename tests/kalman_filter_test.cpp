@@ -160,6 +160,71 @@ TEST(KalmanFilter, SymmetricBlasProductsMatchTextbookFormulas) {
   }
 }
 
+// n, m <= 8 run on fixed-maximum-size matrices with loop products; larger sizes on Eigen/BLAS. A
+// system embedded in a larger one by decoupled extra states (A, Q, P0 block diagonal, C zero on
+// them) keeps its cross-covariances exactly zero, so its block of the large (dynamic-path) run is
+// the same filter computed by the other code path.
+TEST(KalmanFilter, SmallSizePathMatchesDynamicPathOnAnEmbeddedSystem) {
+  kfx::testing::TestRng rng(31);
+  struct Shape {
+    Eigen::Index n, m;
+  };
+  for (const Shape sh : {Shape{1, 1}, Shape{2, 1}, Shape{4, 2}, Shape{5, 3}, Shape{8, 3}, Shape{8, 8}, Shape{3, 5}}) {
+    const Eigen::Index n = sh.n, m = sh.m, p = 10 - n, N = n + p;
+    std::vector<ModelStep> small, large;
+    for (int k = 0; k < 6; ++k) {  // time-varying, cycled over 60 steps
+      ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+      MatrixXd A = MatrixXd::Zero(N, N), Q = MatrixXd::Zero(N, N), C = MatrixXd::Zero(m, N);
+      A.topLeftCorner(n, n) = s.A;
+      A.bottomRightCorner(p, p) = 0.5 * MatrixXd::Identity(p, p);
+      Q.topLeftCorner(n, n) = s.Q;
+      Q.bottomRightCorner(p, p) = MatrixXd::Identity(p, p);
+      C.leftCols(n) = s.C;
+      large.push_back(MakeStep(A, C, Q, s.R));
+      small.push_back(std::move(s));
+    }
+    std::vector<ModelStep> small_steps, large_steps;
+    for (int k = 0; k < 60; ++k) {
+      small_steps.push_back(small[static_cast<size_t>(k % 6)]);
+      large_steps.push_back(large[static_cast<size_t>(k % 6)]);
+    }
+    const MatrixXd P0 = rng.Spd(n);
+    MatrixXd P0_large = MatrixXd::Identity(N, N);
+    P0_large.topLeftCorner(n, n) = P0;
+    const VectorXd m0 = rng.Gaussian(n, 1);
+    VectorXd m0_large = VectorXd::Zero(N);
+    m0_large.head(n) = m0;
+    const Model model_small(small_steps, m0, P0), model_large(large_steps, m0_large, P0_large);
+    TimeSeries y = rng.Gaussian(60, m);
+    y(7, 0) = kNaN;                                        // a partly missing measurement
+    for (Eigen::Index i = 0; i < m; ++i) y(20, i) = kNaN;  // a step with nothing observed
+    for (const CovarianceUpdateForm form : {CovarianceUpdateForm::kJoseph, CovarianceUpdateForm::kStandard}) {
+      FilterRunOptions options;
+      options.filter.update_form = form;
+      const FilterRun a = RunFilter(model_small, y, options), b = RunFilter(model_large, y, options);
+      SCOPED_TRACE("n = " + std::to_string(n) + ", m = " + std::to_string(m));
+      EXPECT_MATRICES_NEAR(a.x_filt, b.x_filt.leftCols(n), 1e-12 * b.x_filt.norm());
+      EXPECT_MATRICES_NEAR(a.x_pred, b.x_pred.leftCols(n), 1e-12 * b.x_pred.norm());
+      EXPECT_NEAR(a.log_likelihood, b.log_likelihood, 1e-12 * std::abs(b.log_likelihood));
+      EXPECT_EQ(a.num_observed, b.num_observed);
+      for (size_t k = 0; k < a.P_filt.size(); ++k) {
+        EXPECT_MATRICES_NEAR(a.P_filt[k], b.P_filt[k].topLeftCorner(n, n), 1e-12 * b.P_filt[k].norm());
+        EXPECT_MATRICES_NEAR(a.P_pred[k], b.P_pred[k].topLeftCorner(n, n), 1e-12 * b.P_pred[k].norm());
+      }
+      // The one-step functions take the same paths.
+      const Estimate e{m0, P0}, e_large{m0_large, P0_large};
+      const Estimate pa = Predict(e, small[0], options.filter), pb = Predict(e_large, large[0], options.filter);
+      const UpdateResult ua = Update(pa, small[0], y.row(7).transpose(), options.filter);
+      const UpdateResult ub = Update(pb, large[0], y.row(7).transpose(), options.filter);
+      EXPECT_MATRICES_NEAR(ua.estimate.P, ub.estimate.P.topLeftCorner(n, n), 1e-12 * ub.estimate.P.norm());
+      EXPECT_MATRICES_NEAR(ua.gain, ub.gain.topRows(n), 1e-12 * ub.gain.norm());
+      EXPECT_MATRICES_NEAR(ua.innovation_cov, ub.innovation_cov, 1e-12 * ub.innovation_cov.norm());
+      EXPECT_NEAR(ua.log_likelihood, ub.log_likelihood, 1e-12 * std::abs(ub.log_likelihood));
+      EXPECT_EQ(ua.observed, ub.observed);
+    }
+  }
+}
+
 // The steady-state fast path against the full recursion: same estimates, log-likelihood and
 // covariances to the tolerance's order; a missing measurement resumes the full recursion.
 TEST(KalmanFilter, SteadyStateFastPathMatchesFullRecursion) {

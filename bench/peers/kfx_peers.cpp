@@ -44,6 +44,24 @@ double PeakRssMb() {
   return -1.0;
 }
 
+// Current resident set (VmRSS), MB.
+double RssMb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
+  }
+  return -1.0;
+}
+
+// Resets VmHWM to the current resident set (Linux >= 4.0: "5" to /proc/self/clear_refs).
+bool ResetPeakRss() {
+  std::ofstream f("/proc/self/clear_refs");
+  f << "5";
+  f.flush();
+  return static_cast<bool>(f);
+}
+
 std::string JsonList(const std::vector<double>& v) {
   std::string s = "[";
   char buf[64];
@@ -182,6 +200,20 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
   options.steady_state_tolerance = tol;
   std::vector<double> t_run;
   kfx::FilterRun run;
+  // Memory of one run: the growth of the resident set's high-water mark over the call (reset just
+  // before it), and that growth less the outputs RunFilter returns (means, covariance diagonals,
+  // innovations: they grow with T): the covariance storage the recursion itself used.
+  const bool reset = ResetPeakRss();
+  const double rss_before = RssMb();
+  run = kfx::RunFilter(model, Y, options);
+  const double run_growth = reset ? PeakRssMb() - rss_before : -1.0;
+  const double outputs_mb =
+      (8.0 * static_cast<double>(run.x_filt.size() + run.x_pred.size() + run.P_filt_diag.size() +
+                                 run.P_pred_diag.size() + run.innovations.size() + run.log_likelihood_terms.size()) +
+       4.0 * static_cast<double>(run.num_observed.size())) /
+      1048576.0;
+  const double covariance_mb = 8.0 * static_cast<double>(n) * static_cast<double>(n) / 1048576.0;
+  run = kfx::FilterRun();
   for (int i = 0; i < reps; ++i) {
     run = kfx::FilterRun();
     const double t0 = CpuSeconds();
@@ -210,8 +242,9 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
   kfx::WriteNpyMatrix(dir + "/" + p + "Pdiag_kfx.npy", last);
   std::cout << "{\"kfx\": " << JsonList(t_run) << ", \"cov_step\": " << JsonList(t_cov)
             << ", \"cov_step_flops\": " << Num(flops) << ", \"peak_rss_mb\": " << Num(rss)
-            << ", \"loglik\": " << Num(run.log_likelihood) << ", \"steps\": " << Y.rows()
-            << ", \"steady_state_steps\": " << run.steady_state_steps << "}\n";
+            << ", \"run_rss_growth_mb\": " << Num(run_growth) << ", \"run_outputs_mb\": " << Num(outputs_mb)
+            << ", \"covariance_mb\": " << Num(covariance_mb) << ", \"loglik\": " << Num(run.log_likelihood)
+            << ", \"steps\": " << Y.rows() << ", \"steady_state_steps\": " << run.steady_state_steps << "}\n";
   return 0;
 }
 

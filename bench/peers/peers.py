@@ -301,6 +301,8 @@ def main():
         scale = np.linalg.norm(xs_np)
         row = dict(n=n, m=m, steps=KF_T, reps=reps, kfx=c["kfx"], numpy=t_np_1000, numpy_steps_timed=steps_np,
                    kfx_cov_step=c["cov_step"], cov_step_flops=c["cov_step_flops"], peak_rss_mb=c["peak_rss_mb"],
+                   run_rss_growth_mb=c["run_rss_growth_mb"], run_outputs_mb=c["run_outputs_mb"],
+                   covariance_mb=c["covariance_mb"],
                    kfx_full_steps=KF_T - c["steady_state_steps"],
                    checks=dict(x_diff_from_numpy=float(np.linalg.norm(xs_kfx[:steps_np + 1] - xs_np) / scale)))
         if not big:
@@ -381,8 +383,9 @@ def table(r):
                  f"{'all ok' if allok else ', '.join(f'{a}: {ok(c)}' for a, c in ch.items())} |")
     L.append(f"\n### Kalman filter, {KF_T} steps, m = max(2, n/10)\n")
     L.append("| n | m | kfx | kfx full steps | numpy loop | FilterPy | numpy / kfx | kfx covariance step | "
-             "its GFLOP/s | fraction of DGEMM | kfx peak RSS | x vs numpy | checks |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+             "its GFLOP/s | fraction of DGEMM | kfx peak RSS | run's RSS growth - outputs | in covariances (n^2 doubles) | "
+             "x vs numpy | checks |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in r["kf"]:
         k, nl = min(d["kfx"]), min(d["numpy"])
         fp = fmt_t(min(d["filterpy"])) if "filterpy" in d else "-"
@@ -390,7 +393,10 @@ def table(r):
         gf = d["cov_step_flops"] / cs * 1e-9
         note = "" if d["numpy_steps_timed"] == KF_T else f" ({d['numpy_steps_timed']} steps x {KF_T // d['numpy_steps_timed']})"
         L.append(f"| {d['n']} | {d['m']} | {fmt_t(k)} | {d['kfx_full_steps']} | {fmt_t(nl)}{note} | {fp} | **{nl / k:.1f}x** | {fmt_t(cs)} | "
-                 f"{gf:.1f} | **{gf / dg:.0%}** | {d['peak_rss_mb']:.0f} MB | {d['checks']['x_diff_from_numpy']:.1e} | "
+                 f"{gf:.1f} | **{gf / dg:.0%}** | {d['peak_rss_mb']:.0f} MB | "
+                 f"{d['run_rss_growth_mb'] - d['run_outputs_mb']:.1f} MB | "
+                 f"**{(d['run_rss_growth_mb'] - d['run_outputs_mb']) / d['covariance_mb']:.2f}** | "
+                 f"{d['checks']['x_diff_from_numpy']:.1e} | "
                  f"{'ok' if d['checks']['ok'] else '**FAIL**'} |")
     return "\n".join(L) + "\n"
 

@@ -38,6 +38,6 @@ void RequirePositiveDefinite(const std::string& name, const Eigen::Ref<const Eig
 void RequireVector(const std::string& name, const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Index n);
 
 /// 0.5 (m + m^T), in place.
-void Symmetrize(Eigen::MatrixXd& m);
+void Symmetrize(Eigen::Ref<Eigen::MatrixXd> m);
 
 }  // namespace kfx
