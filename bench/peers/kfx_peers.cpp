@@ -142,7 +142,10 @@ int Dare(const std::string& dir, int n, int reps) {
             << ", \"paired_ratio\": " << JsonList(ratio) << ", \"sb02od_info\": " << info << ", \"kfx_status\": \""
             << kfx::ToString(sol.summary.status) << "\", \"kfx_method\": \"" << kfx::ToString(sol.summary.method_used)
             << "\", \"kfx_steps\": " << sol.summary.iterations << ", \"kfx_refine\": " << sol.summary.refinement_steps
-            << "}\n";
+            << ", \"kfx_lyapunov_certified\": " << (sol.summary.lyapunov_certified ? "true" : "false")
+            << ", \"kfx_eigenvalues_exact\": " << (sol.summary.eigenvalues_exact ? "true" : "false")
+            << ", \"kfx_rho_reported\": " << Num(sol.summary.closed_loop_spectral_radius)
+            << ", \"kfx_residual\": " << Num(sol.summary.relative_residual) << "}\n";
   return 0;
 }
 

@@ -243,7 +243,8 @@ def main():
         t_sp, X_sp = best_cpu(lambda: sla.solve_discrete_are(A.T, C.T, Q, R), reps)
         row = dict(n=n, m=m, reps=reps, kfx=c["kfx"], sb02od=c["sb02od"], scipy=t_sp,
                    kfx_info=dict(status=c["kfx_status"], method=c["kfx_method"], doubling_steps=c["kfx_steps"],
-                                 refinement_steps=c["kfx_refine"]),
+                                 refinement_steps=c["kfx_refine"], lyapunov_certified=c["kfx_lyapunov_certified"],
+                                 eigenvalues_exact=c["kfx_eigenvalues_exact"], rho_reported=c["kfx_rho_reported"]),
                    sb02od_info=c["sb02od_info"], ratio_sb02od_paired_median=float(np.median(c["paired_ratio"])))
         checks = dict(kfx=dare_check(A, C, Q, R, load(data, p + "X_kfx"), X_sl),
                       sb02od=dare_check(A, C, Q, R, X_sl, X_sl),
