@@ -11,7 +11,7 @@ checks every solution in this script (relative residual, stabilizing, symmetric 
 from SLICOT's X; filters: difference from the numpy loop), and writes OUT/peers.json and
 OUT/peers.md (the table of docs/benchmarks.md).
 
-Usage: peers.py --driver BUILD/bench/kfx_peers --out DIR [--quick]
+Usage: peers.py --driver BUILD/bench/kfx_peers --out DIR [--quick] [--only dare|lyapunov|kf ...]
 """
 import argparse
 import json
@@ -186,10 +186,15 @@ def main():
     ap.add_argument("--driver", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--quick", action="store_true", help="small sizes only (a smoke test of the harness)")
+    ap.add_argument("--only", choices=["dare", "lyapunov", "kf"], action="append",
+                    help="run only these sections (repeatable; default: all)")
     args = ap.parse_args()
     dare_n, lyap_n, kf_n = DARE_N, LYAP_N, KF_N
     if args.quick:
         dare_n, lyap_n, kf_n = [10, 50], [10, 50], [4, 50]
+    if args.only:
+        dare_n, lyap_n, kf_n = (ns if name in args.only else [] for name, ns in
+                                (("dare", dare_n), ("lyapunov", lyap_n), ("kf", kf_n)))
     out = os.path.abspath(args.out)
     data = os.path.join(out, "data")
     os.makedirs(data, exist_ok=True)
@@ -221,7 +226,7 @@ def main():
         for name, M in zip("ACQR", (A, C, Q, R)):
             save(data, p + name, M)
             save_bin(data, p + name, M)
-    octave_ok = shutil_which("octave-cli") is not None
+    octave_ok = bool(dare_n) and shutil_which("octave-cli") is not None
     if octave_ok:
         log("Octave dare ...")
         script = OCTAVE_SCRIPT % dict(dir=data, ns=" ".join(map(str, dare_n)),
