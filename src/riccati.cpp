@@ -918,6 +918,7 @@ DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const E
     sol.summary.status = DareStatus::kConverged;
     sol.summary.method_used = options.method == DareMethod::kSchur ? DareMethod::kSchur : DareMethod::kDoubling;
     sol.summary.message = "empty state (n = 0)";
+    sol.summary.eigenvalues_exact = true;  // rho and lambda_min of empty matrices: 0 by convention
   } else if (options.method == DareMethod::kDoubling) {
     sol = Finalize(A, C, Q, R, SolveByDoubling(A, C, Q, R, options), options);
   } else if (options.method == DareMethod::kSchur) {
