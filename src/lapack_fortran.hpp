@@ -12,9 +12,13 @@ extern "C" {
 
 using kfx_fortran_logical = int;
 
-/// LAPACK DGESV: solves A X = B for general A (n x n) by LU with partial pivoting; A is
-/// overwritten by its LU factors and B (n x nrhs) by X. info > 0: U(info, info) is exactly zero.
-void dgesv_(const int* n, const int* nrhs, double* a, const int* lda, int* ipiv, double* b, const int* ldb, int* info);
+/// LAPACK DGETRF: LU factorization with partial pivoting of a general m x n matrix, in place.
+/// info > 0: U(info, info) is exactly zero (the factorization is complete, U is singular).
+void dgetrf_(const int* m, const int* n, double* a, const int* lda, int* ipiv, int* info);
+
+/// LAPACK DGETRS: solves A X = B (trans 'N') with the LU factors and pivots from DGETRF.
+void dgetrs_(const char* trans, const int* n, const int* nrhs, const double* a, const int* lda, const int* ipiv,
+             double* b, const int* ldb, int* info, std::size_t trans_len);
 
 /// LAPACK DGEEV: eigenvalues (and optionally eigenvectors) of a general real matrix. Used with
 /// jobvl = jobvr = 'N' (eigenvalues only); lwork = -1 is a workspace query.
@@ -28,6 +32,11 @@ void dsyevr_(const char* jobz, const char* range, const char* uplo, const int* n
              const double* vl, const double* vu, const int* il, const int* iu, const double* abstol, int* m, double* w,
              double* z, const int* ldz, int* isuppz, double* work, const int* lwork, int* iwork, const int* liwork,
              int* info, std::size_t jobz_len, std::size_t range_len, std::size_t uplo_len);
+
+/// LAPACK DPOTRF: Cholesky factorization of a symmetric matrix (uplo 'L': A = L L^T, the lower
+/// triangle is read and overwritten by L). info > 0: the leading minor of order info is not
+/// positive (a pivot <= 0 or NaN), the factorization could not be completed.
+void dpotrf_(const char* uplo, const int* n, double* a, const int* lda, int* info, std::size_t uplo_len);
 
 /// SLICOT SB02OD: continuous/discrete algebraic Riccati equation by the generalized Schur method
 /// (deflating subspaces of the extended symplectic pencil, Van Dooren 1981). For dico = 'D':

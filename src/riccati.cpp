@@ -25,8 +25,10 @@
 //  - kSchur: SLICOT SB02OD (generalized Schur / QZ on the extended symplectic pencil,
 //    P. Van Dooren, SIAM J. Sci. Stat. Comput. 2 (1981) 121-135) with DICO = 'D' on (A^T, C^T).
 //
-// Either result then goes through Finalize(): symmetrize, gains, residual, closed-loop spectral
-// radius, smallest eigenvalue, acceptance. Failures are diagnosed with PBH rank tests (Diagnose).
+// Either result then goes through Finalize(): symmetrize, gains, residual, refinement, the
+// stability proof (Lyapunov certificate, CertifyUnchecked; the closed-loop eigenvalues by DGEEV
+// and lambda_min(P) by DSYEVR only when it cannot decide or when asked for), acceptance. Failures
+// are diagnosed with PBH rank tests (Diagnose).
 #include "kfx/riccati.hpp"
 
 #include <algorithm>
@@ -95,6 +97,30 @@ void SymmetrizeInPlace(MatrixXd& m) {
   }
 }
 
+/// *out = beta * *out + alpha * A S A^T for symmetric S (only S's lower triangle is read), in 3 n^3
+/// flops instead of two GEMMs' 4 n^3: with S = L + L^T (L the lower triangle of S, diagonal halved)
+/// and B = A L (DTRMM, n^3), A S A^T = B A^T + A B^T (DSYR2K, 2 n^3, lower triangle; mirrored).
+/// The same device as AddCongruence in src/kalman_filter.cpp. Below n = 32, Eigen's products.
+void UpdateWithCongruence(const ConstRef& A, const MatrixXd& S, double alpha, double beta, MatrixXd* out) {
+  const Index n = A.rows();
+  if (n < 32) {
+    const MatrixXd AS = A * S.selfadjointView<Eigen::Lower>();
+    if (beta == 0.0) out->setZero(n, n);
+    if (beta != 1.0 && beta != 0.0) *out *= beta;
+    out->noalias() += alpha * (AS * A.transpose());
+    SymmetrizeInPlace(*out);
+    return;
+  }
+  const int nf = FortranInt(n), lda = FortranInt(A.outerStride());
+  MatrixXd L = S;
+  L.diagonal() *= 0.5;
+  MatrixXd B = A;
+  const double one = 1.0;
+  dtrmm_("R", "L", "N", "N", &nf, &nf, &one, L.data(), &nf, B.data(), &nf);
+  dsyr2k_("L", "N", &nf, &nf, &alpha, B.data(), &nf, A.data(), &lda, &beta, out->data(), &nf);
+  out->triangularView<Eigen::StrictlyUpper>() = out->transpose();
+}
+
 /// Eigenvalues of a general real matrix by LAPACK DGEEV (eigenvalues only). About 4x faster than
 /// Eigen::EigenSolver at n = 400 (blocked Hessenberg reduction). Returns false if QR failed.
 bool Eigenvalues(const ConstRef& a_in, Eigen::VectorXcd* eig) {
@@ -148,6 +174,128 @@ double MinEigenvalue(const MatrixXd& p) {
   return w[0];
 }
 
+// ------------------------------------------------------------------------------------------------
+// Lyapunov stability certificate (CertifyStability; derivation with references in docs/riccati.md).
+//
+// Lemma (Lyapunov). X = X^T > 0 and M = X - F X F^T > s I with s >= 0. For an eigenvalue lambda of F
+// with left eigenvector v (v^* F = lambda v^*, |v| = 1): v^* M v = (1 - |lambda|^2) v^* X v, with
+// v^* X v > 0 and v^* M v > s, so |lambda|^2 < 1 - s / v^* X v <= 1 - s / lambda_max(X) (< 1 for
+// s = 0). And X = M + F X F^T >= M, so lambda_min(X) > s.
+// For the filter DARE with F = A - K_p C and X = P the identity is P = F P F^T + Q + K_p R K_p^T
+// (the Joseph form of P_filt), so M = Q + K_p R K_p^T: M >= Q, and the certificate succeeds whenever
+// Q > 0 by a margin above the rounding bounds below, however close rho(F) is to 1.
+//
+// Definiteness in floating point (Demmel 1989; Higham, Accuracy and Stability of Numerical
+// Algorithms, 2nd ed., Thm 10.5): if the Cholesky factorization completes on H~ = fl(H - sigma I),
+// then L L^T = H~ + D with |D| <= gamma_{n+1} |L| |L^T| entrywise, so
+//   |D|_2 <= |D|_F <= gamma_{n+1} |L|_F^2 = gamma_{n+1} tr(H~ + D) <= gamma_{n+1} / (1 - gamma_{n+1}) tr(H~),
+// tr(H~) <= (1 + u) tr(H) when all pivots were positive, and forming the shifted diagonal adds at
+// most u max |h_ii - sigma|. Hence lambda_min(H) >= sigma - c(H) with
+//   c(H) = 2 (n + 2) u tr+(H) + n^2 2^-1022     (tr+ = sum |h_ii|; the last term covers underflow),
+// i.e. DPOTRF completing on fl(H - (t + c(H)) I) proves lambda_min(H) > t.
+// The computed M~ = fl(X - fl(fl(F X) F^T)): a GEMM satisfies |fl(AB) - AB| <= gamma_n |A| |B| in any
+// summation order, so with T1 = fl(F X)
+//   |M~ - M|_F <= gamma_n (|F|_F^2 |X|_F + |T1|_F |F|_F) + u / (1 - u) |M~|_F,
+// and the symmetric matrix built from M~'s lower triangle (what DPOTRF reads) is within sqrt(2) times
+// that of M in the 2-norm. delta = 2 (n + 2) u (|F|_F^2 |X|_F + |T1|_F |F|_F + |M~|_F) bounds it (the
+// slack covers sqrt(2) gamma_n / (n u) and the rounding of the norms). Certifying every F' with
+// |F' - F|_2 <= e adds (2 e |F|_F + e^2) |X|_F (F' X F'^T - F X F^T = E X F^T + F X E^T + E X E^T).
+// Steps: DPOTRF on X - c(X) I (X > 0); DPOTRF on M~ - (delta + c(M~)) I (M > 0: rho(F) < 1); a few
+// inverse-iteration steps with that factor estimate mu ~ lambda_min(M~) - delta - c(M~), and DPOTRF on
+// M~ - (s + delta + c(M~)) I with s = mu / 2 (then mu / 16) certifies lambda_min(M) > s, giving the
+// bound rho(F)^2 < 1 - s / x_max with x_max = min(|X|_F, |X|_1) >= lambda_max(X).
+
+constexpr double kUnitRoundoff = 0.5 * std::numeric_limits<double>::epsilon();
+
+/// c(H) above: DPOTRF completing on fl(H - (t + c(H)) I) proves lambda_min(H) > t.
+double CholeskySlack(const MatrixXd& h) {
+  const double n = static_cast<double>(h.rows());
+  return 2 * (n + 2) * kUnitRoundoff * h.diagonal().cwiseAbs().sum() + n * n * std::numeric_limits<double>::min();
+}
+
+/// DPOTRF on fl(H - shift I), H = *h (lower triangle read; *h is overwritten). True if the
+/// factorization completed with finite pivots (OpenBLAS's DPOTRF does not flag a NaN pivot itself).
+bool CholeskyCompletes(MatrixXd* h, double shift) {
+  const int n = FortranInt(h->rows());
+  if (n == 0) return true;
+  h->diagonal().array() -= shift;
+  int info = 0;
+  dpotrf_("L", &n, h->data(), &n, &info, 1);
+  KFX_ASSERT(info >= 0);
+  return info == 0 && h->diagonal().allFinite();
+}
+
+/// CertifyStability on validated input (F, X square of the same size, finite, X exactly symmetric).
+StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, double perturbation) {
+  StabilityCertificate cert;
+  const Index n = F.rows();
+  if (n == 0) {
+    cert.certified = true;
+    cert.spectral_radius_bound = 0.0;
+    cert.min_eigenvalue_bound = std::numeric_limits<double>::infinity();
+    cert.message = "empty matrix";
+    return cert;
+  }
+  const double u = kUnitRoundoff, nd = static_cast<double>(n);
+  MatrixXd H = X;
+  if (!CholeskyCompletes(&H, CholeskySlack(H))) {
+    cert.message = "X is not certified positive definite (Cholesky factorization of X - c I failed)";
+    return cert;
+  }
+  MatrixXd T1(n, n);
+  T1.noalias() = F * X;
+  MatrixXd M = X;
+  M.noalias() -= T1 * F.transpose();
+  const double f_norm = F.norm(), x_norm = X.norm();
+  double delta = 2 * (nd + 2) * u * (f_norm * f_norm * x_norm + T1.norm() * f_norm + M.norm());
+  if (perturbation > 0) delta += (2 * perturbation * f_norm + perturbation * perturbation) * x_norm * (1 + 4 * u);
+  if (!M.allFinite() || !std::isfinite(delta)) {
+    cert.message = "X - F X F^T overflows";
+    return cert;
+  }
+  const double c_m = CholeskySlack(M);
+  H = M;
+  if (!CholeskyCompletes(&H, delta + c_m)) {
+    cert.message =
+        "X - F X F^T is not certified positive definite (Cholesky factorization of M - (delta + c) I "
+        "failed, delta = " +
+        FormatDouble(delta) + ")";
+    return cert;
+  }
+  cert.certified = true;
+  cert.spectral_radius_bound = 1.0;
+  cert.min_eigenvalue_bound = 0.0;
+  cert.message = "rho(F) < 1 proven";
+  // Inverse iteration with the factor: mu = 1 / |H~^{-1} x|, |x| = 1, estimates lambda_min(H~) from above.
+  Eigen::VectorXd x(n);
+  for (Index i = 0; i < n; ++i) x(i) = (i % 2 == 0 ? 1.0 : -1.0) * (1.0 + static_cast<double>(i % 7) / 7.0);
+  double mu = 0.0;
+  for (int it = 0; it < 8; ++it) {
+    x /= x.norm();
+    H.triangularView<Eigen::Lower>().solveInPlace(x);
+    H.triangularView<Eigen::Lower>().transpose().solveInPlace(x);
+    const double y_norm = x.norm();
+    if (!(y_norm > 0) || !std::isfinite(y_norm)) break;
+    mu = 1.0 / y_norm;
+  }
+  const double x_max = std::min(x_norm, X.cwiseAbs().colwise().sum().maxCoeff()) * (1 + 4 * (nd + 2) * u);
+  for (const double fraction : {0.5, 0.0625}) {
+    const double s = fraction * mu;
+    if (!(s > 0) || !(x_max > 0)) break;
+    H = M;
+    if (CholeskyCompletes(&H, s + delta + c_m)) {
+      // rho^2 < 1 - s / x_max <= fl(1 - fl(s / x_max)) + 2u; sqrt and the sum add one rounding each.
+      const double rho_sq = std::max(0.0, 1.0 - s / x_max);
+      cert.spectral_radius_bound = std::min(1.0, std::sqrt(rho_sq + 4 * u) * (1 + 2 * u));
+      cert.min_eigenvalue_bound = s;
+      cert.message = "rho(F) <= " + FormatDouble(cert.spectral_radius_bound, 6) +
+                     " and lambda_min(X) >= " + FormatDouble(s) + " proven";
+      break;
+    }
+  }
+  return cert;
+}
+
 /// What a method hands to Finalize.
 struct Candidate {
   MatrixXd P;                               ///< empty if the method produced nothing usable.
@@ -159,11 +307,14 @@ struct Candidate {
 
 // ------------------------------------------------------------------------------------------------
 // Structure-preserving doubling (see the file comment). Per step, with one LU of W_k:
-//   [Y1, Y2] = W_k^{-1} [A_k, G_k]                      (DGESV: LU 2/3 n^3 + 2n solves 4 n^3)
+//   Y1 = W_k^{-1} A_k                                   (DGETRF 2/3 n^3, DGETRS 2 n^3)
 //   D   = A_k^T (H_k Y1)         = H_{k+1} - H_k        (2 GEMMs)
-//   G  += (A_k Y2) A_k^T                                (2 GEMMs)
+// and, unless H_{k+1} passed the stopping test (then they are not needed),
+//   Y2 = W_k^{-1} G_k                                   (DGETRS 2 n^3)
+//   G  += A_k Y2 A_k^T                                  (DTRMM + DSYR2K, 3 n^3; UpdateWithCongruence)
 //   A_{k+1} = A_k Y1                                    (1 GEMM)
-// plus W_k = I + G_k H_k (1 GEMM): about 16.7 n^3 flops per step, all in BLAS 3. H_k W_k^{-1} and
+// plus W_k = I + G_k H_k (1 GEMM): about 15.7 n^3 flops per step (8.7 n^3 for the last), all in
+// BLAS 3. H_k W_k^{-1} and
 // W_k^{-1} G_k are symmetric in exact arithmetic, H and G are re-symmetrized after each step.
 // The increment D is formed explicitly, so the stopping test |D|_F <= tol |H_{k+1}|_F has no
 // cancellation floor.
@@ -173,7 +324,6 @@ Candidate SolveByDoubling(const ConstRef& A, const ConstRef& C, const ConstRef& 
   out.method = DareMethod::kDoubling;
   const Index n = A.rows();
   const int nf = FortranInt(n);
-  const int nrhs = FortranInt(2 * n);
 
   // G_0 = C^T R^{-1} C = Z^T Z with Z = L^{-1} C, R = L L^T (validated PD, so LLT succeeds).
   Eigen::LLT<MatrixXd> r_llt(R);
@@ -189,7 +339,7 @@ Candidate SolveByDoubling(const ConstRef& A, const ConstRef& C, const ConstRef& 
   SymmetrizeInPlace(H);
   MatrixXd Ak = A.transpose();
 
-  MatrixXd W(n, n), Y(n, 2 * n), T(n, n), D(n, n);
+  MatrixXd W(n, n), Y1(n, n), Y2(n, n), T(n, n), D(n, n);
   std::vector<int> ipiv(static_cast<std::size_t>(std::max<Index>(n, 1)));
   const double h_start = std::max(H.norm(), kTiny);
   const double g_start = std::max(G.norm(), kTiny);
@@ -198,47 +348,49 @@ Candidate SolveByDoubling(const ConstRef& A, const ConstRef& C, const ConstRef& 
   for (int k = 1; k <= options.max_iterations; ++k) {
     W.noalias() = G * H;
     W.diagonal().array() += 1.0;
-    Y.leftCols(n) = Ak;
-    Y.rightCols(n) = G;
     int info = 0;
-    dgesv_(&nf, &nrhs, W.data(), &nf, ipiv.data(), Y.data(), &nf, &info);
+    dgetrf_(&nf, &nf, W.data(), &nf, ipiv.data(), &info);
     KFX_ASSERT(info >= 0);
     if (info > 0) {
       out.iterations = k;
       out.P = H;
-      out.message = "doubling: W = I + G_k H_k is singular at step " + std::to_string(k) + " (DGESV info " +
+      out.message = "doubling: W = I + G_k H_k is singular at step " + std::to_string(k) + " (DGETRF info " +
                     std::to_string(info) + ")";
       return out;
     }
-    const Eigen::Ref<const MatrixXd> Y1 = Y.leftCols(n);   // W_k^{-1} A_k
-    const Eigen::Ref<const MatrixXd> Y2 = Y.rightCols(n);  // W_k^{-1} G_k
+    Y1 = Ak;  // W_k^{-1} A_k
+    dgetrs_("N", &nf, &nf, W.data(), &nf, ipiv.data(), Y1.data(), &nf, &info, 1);
+    KFX_ASSERT(info == 0);
     T.noalias() = H * Y1;
     D.noalias() = Ak.transpose() * T;
-    T.noalias() = Ak * Y2;
-    G.noalias() += T * Ak.transpose();
-    T.noalias() = Ak * Y1;
-    Ak.swap(T);
     H += D;
     SymmetrizeInPlace(H);
-    SymmetrizeInPlace(G);
-
     const double change = D.norm();
     const double h_norm = H.norm();
-    const double g_norm = G.norm();
     out.iterations = k;
-    if (!std::isfinite(change) || !std::isfinite(h_norm) || !std::isfinite(g_norm) ||
-        h_norm > kDivergenceGrowth * h_start || g_norm > kDivergenceGrowth * g_start) {
-      out.message = "doubling diverged at step " + std::to_string(k) + " (|H_k|_F = " + FormatDouble(h_norm) +
-                    ", |G_k|_F = " + FormatDouble(g_norm) + ")";
+    if (!std::isfinite(change) || !std::isfinite(h_norm) || h_norm > kDivergenceGrowth * h_start) {
+      out.message = "doubling diverged at step " + std::to_string(k) + " (|H_k|_F = " + FormatDouble(h_norm) + ")";
       out.P.resize(0, 0);  // nothing usable
       return out;
     }
     last_change = change / std::max(h_norm, kTiny);
-    if (change <= options.tolerance * h_norm) {
+    if (change <= options.tolerance * h_norm) {  // converged: G_{k+1}, A_{k+1} are not needed
       out.P = std::move(H);
       out.status = DareStatus::kConverged;
       out.message =
           "doubling converged in " + std::to_string(k) + " steps (relative change " + FormatDouble(last_change) + ")";
+      return out;
+    }
+    Y2 = G;  // W_k^{-1} G_k (symmetric in exact arithmetic), with the same LU factors
+    dgetrs_("N", &nf, &nf, W.data(), &nf, ipiv.data(), Y2.data(), &nf, &info, 1);
+    KFX_ASSERT(info == 0);
+    UpdateWithCongruence(Ak, Y2, 1.0, 1.0, &G);  // G += A_k Y2 A_k^T (exactly symmetric)
+    T.noalias() = Ak * Y1;
+    Ak.swap(T);
+    const double g_norm = G.norm();
+    if (!std::isfinite(g_norm) || g_norm > kDivergenceGrowth * g_start) {
+      out.message = "doubling diverged at step " + std::to_string(k) + " (|G_k|_F = " + FormatDouble(g_norm) + ")";
+      out.P.resize(0, 0);
       return out;
     }
   }
@@ -376,60 +528,77 @@ int SolveSteinSb03md(const ConstRef& A, const ConstRef& Q, MatrixXd* X, double* 
 /// = A (P - K_f C P) A^T = A P_filt A^T, so Res(P) = P - A P_filt A^T - Q: the quantity defined in
 /// the header, evaluated without the cancellation between its two large terms. The fixed-point
 /// (Riccati) map is F(P) = A P_filt A^T + Q = P - Res(P).
+/// With S = L L^T and Z = L^{-1} C P: K_f C P = Z^T Z, so P_filt = P - Z^T Z (DSYRK, exactly
+/// symmetric) and K_f^T = L^{-T} Z, and A P_filt A^T by UpdateWithCongruence. About 5.5 n^3 flops
+/// for m = n/2 (8 n^3 with general products); K_p = A K_f (2 n^2 m more)
+/// only on request (AddPredictorGain), as the refinement's intermediate iterates do not need it.
 struct Derived {
   bool s_ok = false;
+  bool has_predictor_gain = false;
   MatrixXd P, P_filt, K_f, K_p, S, res;
   double residual = std::numeric_limits<double>::infinity();
 };
+
+/// Lower triangle -> upper triangle.
+void MirrorLower(MatrixXd* m) { m->triangularView<Eigen::StrictlyUpper>() = m->transpose(); }
 
 Derived Derive(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, const ConstRef& P_in) {
   Derived d;
   d.P = P_in;
   SymmetrizeInPlace(d.P);
-  const MatrixXd CP = C * d.P;  // m x n
+  MatrixXd Z = C * d.P;  // m x n: C P
   d.S = R;
-  d.S.noalias() += CP * C.transpose();
+  d.S.noalias() += Z * C.transpose();
   SymmetrizeInPlace(d.S);
   Eigen::LLT<MatrixXd> s_llt(d.S);
   if (s_llt.info() != Eigen::Success || !d.S.allFinite()) return d;
   d.s_ok = true;
-  d.K_f = s_llt.solve(CP).transpose();  // K_f = P C^T S^{-1}, n x m (factor and solve)
-  d.K_p.noalias() = A * d.K_f;
+  s_llt.matrixL().solveInPlace(Z);  // Z = L^{-1} C P
   d.P_filt = d.P;
-  d.P_filt.noalias() -= d.K_f * CP;
-  SymmetrizeInPlace(d.P_filt);
-  MatrixXd APf(A.rows(), A.rows());
-  APf.noalias() = A * d.P_filt;
+  d.P_filt.selfadjointView<Eigen::Lower>().rankUpdate(Z.transpose(), -1.0);  // P - Z^T Z
+  MirrorLower(&d.P_filt);
+  s_llt.matrixU().solveInPlace(Z);  // L^{-T} L^{-1} C P = S^{-1} C P = K_f^T
+  d.K_f = Z.transpose();
   d.res = d.P - Q;
-  d.res.noalias() -= APf * A.transpose();
+  UpdateWithCongruence(A, d.P_filt, -1.0, 1.0, &d.res);  // P - Q - A P_filt A^T
   d.residual = d.res.norm() / std::max(d.P.norm(), kTiny);
   if (!std::isfinite(d.residual)) d.residual = std::numeric_limits<double>::infinity();
   return d;
 }
 
+void AddPredictorGain(const ConstRef& A, Derived* d) {
+  if (!d->s_ok || d->has_predictor_gain) return;
+  d->K_p.noalias() = A * d->K_f;
+  d->has_predictor_gain = true;
+}
+
 constexpr int kMaxFixedPointSteps = 4;
 constexpr double kNewtonThreshold = 1e-13;
-/// Below this relative residual (a few ulps) refinement cannot gain anything.
-constexpr double kRefinementFloor = 4 * std::numeric_limits<double>::epsilon();
+/// Refinement stops at this relative residual (32 eps = 7.1e-15). The attainable floor is a few
+/// eps (measured 6e-16 at n = 50, 1.4e-15 at n = 400); the fixed-point steps from 32 eps down to it
+/// gain less than a digit and cost ~5.5 n^3 flops each (one fixed-point step at n = 200 is ~4% of
+/// the solve). SB02OD's residuals on the same systems are 1e-14..2e-14 at n = 200..400.
+constexpr double kRefinementTarget = 32 * std::numeric_limits<double>::epsilon();
 
 /// Refinement of an accepted solution (DareOptions::refine). The Riccati map contracts errors like
 /// E -> A_cl E A_cl^T (A_cl = A - K_p C), so one fixed-point step P <- F(P) divides the residual by
 /// about rho(A_cl)^{-2}: doubling's accumulated rounding (relative residual ~1e-13 at n = 200..400,
-/// vs ~1e-15 attainable) is removed in 2-3 steps of ~7 n^3 flops each (a doubling step is ~17 n^3).
-/// A step is kept only if it at least halves the residual. If rho(A_cl) is close to 1 the
-/// fixed point stalls; then one Newton (Hewer/Kleinman) step solves the Stein equation
+/// vs ~1e-15 attainable) is removed in 2-3 steps of ~5.5 n^3 flops each (a doubling step is ~16 n^3),
+/// until the residual is <= kRefinementTarget. A step is kept only if it at least halves the residual. If rho(A_cl) is
+/// close to 1 the fixed point stalls; then one Newton (Hewer/Kleinman) step solves the Stein equation
 ///   E = A_cl E A_cl^T + (F(P) - P),   P <- P + E
 /// (the Newton step for F(P) - P = 0, since F'(P)[E] = A_cl E A_cl^T; G.A. Hewer, IEEE TAC 16
 /// (1971) 382-384), about 25 n^3 flops with SB03MD, kept only if it lowers the residual.
 int Refine(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, Derived* d) {
   int accepted = 0;
-  for (int step = 0; step < kMaxFixedPointSteps && d->residual > kRefinementFloor; ++step) {
+  for (int step = 0; step < kMaxFixedPointSteps && d->residual > kRefinementTarget; ++step) {
     Derived next = Derive(A, C, Q, R, d->P - d->res);
     if (!next.s_ok || !(next.residual <= 0.5 * d->residual)) break;
     *d = std::move(next);
     ++accepted;
   }
   if (d->residual > kNewtonThreshold) {
+    AddPredictorGain(A, d);
     MatrixXd closed_loop = A;
     closed_loop.noalias() -= d->K_p * C;
     MatrixXd E;
@@ -479,23 +648,51 @@ DareSolution Finalize(const ConstRef& A, const ConstRef& C, const ConstRef& Q, c
   }
   sol.P_pred = std::move(d.P);
   sol.innovation_cov = std::move(d.S);
-  sum.min_eigenvalue = MinEigenvalue(sol.P_pred);
   if (!d.s_ok) {
+    sum.min_eigenvalue = MinEigenvalue(sol.P_pred);
+    sum.eigenvalues_exact = true;
     sum.status = DareStatus::kFailed;
     sum.message += "; innovation covariance S = C P C^T + R is not positive definite (Cholesky failed)";
     return sol;
   }
+  AddPredictorGain(A, &d);
   sol.P_filt = std::move(d.P_filt);
   sol.filter_gain = std::move(d.K_f);
   sol.predictor_gain = std::move(d.K_p);
   sum.relative_residual = d.residual;
   MatrixXd closed_loop = A;
   closed_loop.noalias() -= sol.predictor_gain * C;
-  sum.closed_loop_spectral_radius = SpectralRadiusUnchecked(closed_loop);
 
+  // Stability: the Lyapunov certificate with F = A - K_p C, X = P (P - F P F^T = Q + K_p R K_p^T;
+  // see CertifyUnchecked), robust to the rounding of forming F: |fl(A - K_p C) - (A - K_p C)|
+  // <= gamma_{m+1} (|A| + |K_p| |C|) entrywise. Its bounds are reported unless exact eigenvalues are
+  // asked for; DGEEV and DSYEVR run only when it cannot decide (or gives no bound below 1 - margin).
+  bool stable = false, psd = false;
+  sum.eigenvalues_exact = true;  // until the certificate's bounds are taken
+  if (!options.exact_eigenvalues) {
+    const double md = static_cast<double>(C.rows());
+    const double e = 2 * (md + 2) * kUnitRoundoff * (A.norm() + sol.predictor_gain.norm() * C.norm());
+    const StabilityCertificate cert = CertifyUnchecked(closed_loop, sol.P_pred, e);
+    // Proven: P > 0 and rho(F) < 1 - margin (for margin 0 the bare certificate suffices).
+    sum.lyapunov_certified = cert.certified && (options.stability_margin == 0.0 ||
+                                                cert.spectral_radius_bound < 1.0 - options.stability_margin);
+    stable = psd = sum.lyapunov_certified;
+    if (sum.lyapunov_certified && cert.spectral_radius_bound < 1.0 && cert.min_eigenvalue_bound > 0.0) {
+      sum.closed_loop_spectral_radius = cert.spectral_radius_bound;
+      sum.min_eigenvalue = cert.min_eigenvalue_bound;
+      sum.eigenvalues_exact = false;
+    }
+  }
+  if (sum.eigenvalues_exact) {  // asked for, not proven, or proven without a bound below 1 to report
+    sum.closed_loop_spectral_radius = SpectralRadiusUnchecked(closed_loop);
+    sum.min_eigenvalue = MinEigenvalue(sol.P_pred);
+    sum.eigenvalues_exact = true;
+    if (!sum.lyapunov_certified) {
+      stable = sum.closed_loop_spectral_radius < 1.0 - options.stability_margin;
+      psd = sum.min_eigenvalue >= -kPsdTolerance * std::max(sol.P_pred.norm(), kTiny);
+    }
+  }
   const bool residual_ok = sum.relative_residual <= kResidualAcceptance;
-  const bool stable = sum.closed_loop_spectral_radius < 1.0 - options.stability_margin;
-  const bool psd = sum.min_eigenvalue >= -kPsdTolerance * std::max(sol.P_pred.norm(), kTiny);
   if (sum.status == DareStatus::kConverged) {
     if (!residual_ok) {
       sum.status = DareStatus::kFailed;
@@ -664,7 +861,8 @@ std::string DareSummary::BriefReport() const {
   std::ostringstream os;
   os << "DARE: " << ToString(status) << ", method " << ToString(method_used) << (fell_back ? " (fallback)" : "") << ", "
      << iterations << " doubling steps, relative residual " << FormatDouble(relative_residual) << ", rho(A - K_p C) "
-     << FormatDouble(closed_loop_spectral_radius, 6) << ", " << FormatDouble(solve_seconds) << " s";
+     << (eigenvalues_exact ? "" : "<= ") << FormatDouble(closed_loop_spectral_radius, 6)
+     << (eigenvalues_exact ? "" : " (Lyapunov bound)") << ", " << FormatDouble(solve_seconds) << " s";
   return os.str();
 }
 
@@ -682,8 +880,12 @@ std::string DareSummary::FullReport() const {
   row("doubling steps", std::to_string(iterations));
   row("refinement steps", std::to_string(refinement_steps));
   row("relative residual", FormatDouble(relative_residual));
-  row("rho(A - K_p C)", FormatDouble(closed_loop_spectral_radius, 10));
-  row("min eigenvalue of P", FormatDouble(min_eigenvalue));
+  row("rho(A - K_p C)", eigenvalues_exact
+                            ? FormatDouble(closed_loop_spectral_radius, 10)
+                            : "<= " + FormatDouble(closed_loop_spectral_radius, 10) + " (Lyapunov bound)");
+  row("min eigenvalue of P",
+      eigenvalues_exact ? FormatDouble(min_eigenvalue) : ">= " + FormatDouble(min_eigenvalue) + " (Lyapunov bound)");
+  row("stability proven by", lyapunov_certified ? "Lyapunov certificate" : "eigenvalues (DGEEV)");
   row("solve time [s]", FormatDouble(solve_seconds));
   row("message", message);
   return os.str();
@@ -716,6 +918,7 @@ DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const E
     sol.summary.status = DareStatus::kConverged;
     sol.summary.method_used = options.method == DareMethod::kSchur ? DareMethod::kSchur : DareMethod::kDoubling;
     sol.summary.message = "empty state (n = 0)";
+    sol.summary.eigenvalues_exact = true;  // rho and lambda_min of empty matrices: 0 by convention
   } else if (options.method == DareMethod::kDoubling) {
     sol = Finalize(A, C, Q, R, SolveByDoubling(A, C, Q, R, options), options);
   } else if (options.method == DareMethod::kSchur) {
@@ -887,6 +1090,20 @@ Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A
   if (scale != 1.0) sum.message += "; solution divided by SB03MD's scale " + FormatDouble(scale, 17);
   if (!sum.ok) sum.message += "; the solution has non-finite entries";
   return x;
+}
+
+StabilityCertificate CertifyStability(const Eigen::Ref<const Eigen::MatrixXd>& F,
+                                      const Eigen::Ref<const Eigen::MatrixXd>& X, double perturbation) {
+  RequireSquare("F", F);
+  RequireFinite("F", F);
+  RequireShape("X", X, F.rows(), F.rows());
+  RequireFinite("X", X);
+  if (!(perturbation >= 0.0 && std::isfinite(perturbation))) {
+    throw Error("perturbation: expected a finite value >= 0, got " + FormatDouble(perturbation));
+  }
+  MatrixXd Xs = X;
+  SymmetrizeInPlace(Xs);
+  return CertifyUnchecked(F, Xs, perturbation);
 }
 
 double SpectralRadius(const Eigen::Ref<const Eigen::MatrixXd>& A) {

@@ -11,6 +11,7 @@
 #include <limits>
 #include <string>
 #include <tuple>
+#include <utility>
 
 #include "kfx/error.hpp"
 #include "kfx/riccati.hpp"
@@ -23,9 +24,10 @@ using Eigen::MatrixXd;
 using kfx::testing::RelativeDifference;
 using kfx::testing::TestRng;
 
-DareOptions WithMethod(DareMethod method) {
+DareOptions WithMethod(DareMethod method, bool exact_eigenvalues = false) {
   DareOptions options;
   options.method = method;
+  options.exact_eigenvalues = exact_eigenvalues;
   return options;
 }
 
@@ -52,7 +54,16 @@ void ExpectValidSolution(const MatrixXd& A, const MatrixXd& C, const MatrixXd& Q
   EXPECT_MATRICES_NEAR(s.P_filt, s.P_pred - s.filter_gain * C * s.P_pred, 1e-12 * scale);
   const double rho = Rho(A - s.predictor_gain * C);
   EXPECT_LT(rho, 1.0);
-  EXPECT_NEAR(s.summary.closed_loop_spectral_radius, rho, 1e-9);
+  if (s.summary.eigenvalues_exact) {
+    EXPECT_NEAR(s.summary.closed_loop_spectral_radius, rho, 1e-9);
+    EXPECT_NEAR(s.summary.min_eigenvalue, MinEigenvalue(s.P_pred), 1e-12 * scale);
+  } else {  // the Lyapunov certificate's bounds
+    EXPECT_TRUE(s.summary.lyapunov_certified);
+    EXPECT_GE(s.summary.closed_loop_spectral_radius, rho - 1e-12);
+    EXPECT_LT(s.summary.closed_loop_spectral_radius, 1.0);
+    EXPECT_GT(s.summary.min_eigenvalue, 0.0);
+    EXPECT_LE(s.summary.min_eigenvalue, MinEigenvalue(s.P_pred) + 1e-12 * scale);
+  }
   EXPECT_NEAR(s.summary.relative_residual, FilterDareResidual(A, C, Q, R, s.P_pred), 1e-15);
   EXPECT_GE(s.summary.solve_seconds, 0.0);
 }
@@ -79,8 +90,10 @@ TEST(DareScalar, MatchesPositiveRootOfTheQuadratic) {
     const MatrixXd Q = MatrixXd::Constant(1, 1, q), R = MatrixXd::Constant(1, 1, r);
     for (DareMethod method : {DareMethod::kAuto, DareMethod::kDoubling, DareMethod::kSchur}) {
       SCOPED_TRACE(std::string("a = ") + std::to_string(a) + ", method " + ToString(method));
-      const DareSolution s = SolveFilterDare(A, C, Q, R, WithMethod(method));
+      const DareSolution s = SolveFilterDare(A, C, Q, R, WithMethod(method, /*exact_eigenvalues=*/true));
       ExpectValidSolution(A, C, Q, R, s);
+      EXPECT_TRUE(s.summary.eigenvalues_exact);
+      EXPECT_FALSE(s.summary.lyapunov_certified);  // not attempted when the eigenvalues are asked for
       EXPECT_NEAR(s.P_pred(0, 0), p, 1e-12 * p);
       const double kf = p * c / (c * c * p + r);
       EXPECT_NEAR(s.filter_gain(0, 0), kf, 1e-12 * std::abs(kf));
@@ -138,7 +151,8 @@ TEST(DareDoubleIntegrator, MatchesHandDerivedFamily) {
       EXPECT_MATRICES_NEAR(s.P_pred, P, 1e-12 * P.norm());
     }
   }
-  const DareSolution s = SolveFilterDare(A, C, (MatrixXd(2, 2) << 0, 0, 0, 1.0 / 3).finished(), MatrixXd::Ones(1, 1));
+  const DareSolution s = SolveFilterDare(A, C, (MatrixXd(2, 2) << 0, 0, 0, 1.0 / 3).finished(), MatrixXd::Ones(1, 1),
+                                         WithMethod(DareMethod::kAuto, /*exact_eigenvalues=*/true));
   EXPECT_MATRICES_NEAR(s.filter_gain, (MatrixXd(2, 1) << 2.0 / 3, 1.0 / 3).finished(), 1e-14);
   EXPECT_MATRICES_NEAR(s.predictor_gain, (MatrixXd(2, 1) << 1.0, 1.0 / 3).finished(), 1e-14);
   EXPECT_MATRICES_NEAR(s.P_filt, (MatrixXd(2, 2) << 2.0 / 3, 1.0 / 3, 1.0 / 3, 2.0 / 3).finished(), 1e-14);
@@ -186,7 +200,16 @@ TEST_P(DareRandomTest, DoublingAgreesWithSchur) {
   EXPECT_LE(s.summary.relative_residual, 1e-12);
   EXPECT_TRUE(std::isfinite(d.summary.min_eigenvalue));
   EXPECT_GT(d.summary.min_eigenvalue, 0.0);  // Q is PD, hence so is P
-  EXPECT_NEAR(d.summary.min_eigenvalue, MinEigenvalue(d.P_pred), 1e-12 * d.P_pred.norm());
+  // Q > 0: the certificate decides (P - F P F^T = Q + K_p R K_p^T > 0), and its bounds agree with
+  // the eigenvalues of the same solution asked for exactly.
+  EXPECT_TRUE(d.summary.lyapunov_certified) << d.summary.FullReport();
+  EXPECT_FALSE(d.summary.eigenvalues_exact);
+  const DareSolution e = SolveFilterDare(A, C, Q, R, WithMethod(DareMethod::kDoubling, /*exact_eigenvalues=*/true));
+  ASSERT_TRUE(e.summary.eigenvalues_exact);
+  EXPECT_EQ(e.P_pred, d.P_pred);
+  EXPECT_NEAR(e.summary.min_eigenvalue, MinEigenvalue(d.P_pred), 1e-12 * d.P_pred.norm());
+  EXPECT_GE(d.summary.closed_loop_spectral_radius, e.summary.closed_loop_spectral_radius);
+  EXPECT_LE(d.summary.min_eigenvalue, e.summary.min_eigenvalue);
 }
 
 INSTANTIATE_TEST_SUITE_P(Sizes, DareRandomTest,
@@ -343,6 +366,9 @@ TEST(DareDiagnosis, NoiselessModeOnTheUnitCircleIsNotStabilizable) {
       EXPECT_EQ(s.summary.status, DareStatus::kNotStabilizable) << ToString(method) << ": " << s.summary.FullReport();
       if (method != DareMethod::kSchur) {  // doubling's result: the (non-stabilizing) solution P = 0
         EXPECT_MATRICES_NEAR(s.P_pred, MatrixXd::Zero(c.A.rows(), c.A.rows()), 1e-14);
+        // The certificate cannot decide (P = 0 is not positive definite): the eigenvalues do.
+        EXPECT_FALSE(s.summary.lyapunov_certified);
+        EXPECT_TRUE(s.summary.eigenvalues_exact);
         EXPECT_NEAR(s.summary.closed_loop_spectral_radius, 1.0, 1e-12);
       }
     }
@@ -362,7 +388,12 @@ TEST(DareFallback, ZeroNoiseUnstableModeNeedsTheSchurMethod) {
   EXPECT_TRUE(s.summary.fell_back);
   EXPECT_EQ(s.summary.method_used, DareMethod::kSchur);
   EXPECT_NEAR(s.P_pred(0, 0), 1.25, 1e-14);
-  EXPECT_NEAR(s.summary.closed_loop_spectral_radius, 2.0 / 3.0, 1e-14);
+  // P - F P F^T = K_p R K_p^T = (1.5 * 1.25 / 2.25)^2 > 0: certified, with a bound above 2/3.
+  EXPECT_TRUE(s.summary.lyapunov_certified);
+  EXPECT_GE(s.summary.closed_loop_spectral_radius, 2.0 / 3.0);
+  EXPECT_LT(s.summary.closed_loop_spectral_radius, 1.0);
+  const DareSolution e = SolveFilterDare(A, C, Q, R, WithMethod(DareMethod::kAuto, /*exact_eigenvalues=*/true));
+  EXPECT_NEAR(e.summary.closed_loop_spectral_radius, 2.0 / 3.0, 1e-14);
 }
 
 TEST(DareIterationLimit, ReportsNotConverged) {
@@ -387,6 +418,159 @@ void ExpectErrorNaming(const std::string& name, const std::function<void()>& cal
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()).rfind(name + ":", 0), 0u) << e.what();
   }
+}
+
+// ------------------------------------------------------------------------------------------------
+// The Lyapunov stability certificate (CertifyStability; docs/riccati.md). Oracle: DGEEV / Eigen's
+// eigenvalues of the same F, and DARE solutions whose stability is known in closed form.
+
+/// Scalar DARE roots: the stabilizing (+) and anti-stabilizing (-) solution of
+/// c^2 p^2 + (r - a^2 r - q c^2) p - q r = 0 (see ScalarDare); the product of the roots is
+/// -q r / c^2, which gives the second without cancellation.
+std::pair<double, double> ScalarDareRoots(double a, double c, double q, double r) {
+  const double plus = ScalarDare(a, c, q, r);
+  return {plus, -q * r / (c * c * plus)};
+}
+
+TEST(StabilityCertificate, AgreesWithTheEigenvaluesOnRandomStableAndUnstableMatrices) {
+  // X solves the Stein equation X = F X F^T + Q (Q SPD). For rho(F) < 1 it is SPD and
+  // X - F X F^T = Q > 0: certified, with rho(F) <= bound < 1 and lambda_min(X) >= s. For rho(F) > 1
+  // (no eigenvalue pair with product 1) X is indefinite: never certified.
+  int certified = 0, refused = 0;
+  for (int n : {1, 3, 10, 40}) {
+    for (double rho : {0.1, 0.6, 0.95, 0.999, 1.05, 1.6}) {
+      for (int seed = 0; seed < 3; ++seed) {
+        TestRng rng(100 * n + static_cast<int>(1000 * rho) + 7 * seed);
+        const MatrixXd F = rng.WithSpectralRadius(n, rho);
+        const MatrixXd Q = rng.Spd(n);
+        MatrixXd X;
+        try {
+          X = SolveDiscreteLyapunov(F, Q);
+        } catch (const Error&) {
+          continue;  // (nearly) reciprocal eigenvalue pair: no X to test with
+        }
+        const StabilityCertificate cert = CertifyStability(F, X);
+        const double exact = Rho(F);
+        SCOPED_TRACE("n = " + std::to_string(n) + ", rho = " + std::to_string(exact) + ": " + cert.message);
+        if (exact < 1.0) {
+          ASSERT_TRUE(cert.certified);
+          ++certified;
+          EXPECT_GE(cert.spectral_radius_bound, exact);
+          EXPECT_LE(cert.spectral_radius_bound, 1.0);
+          EXPECT_GE(cert.min_eigenvalue_bound, 0.0);
+          EXPECT_LE(cert.min_eigenvalue_bound, MinEigenvalue(X));
+          // s < lambda_min(X - F X F^T) = lambda_min(Q + Stein residual)
+          EXPECT_LE(cert.min_eigenvalue_bound, MinEigenvalue(Q) + 1e-9 * X.norm());
+          if (exact < 0.99) {
+            EXPECT_LT(cert.spectral_radius_bound, 1.0);
+          }
+        } else {
+          EXPECT_FALSE(cert.certified);
+          ++refused;
+          EXPECT_EQ(cert.spectral_radius_bound, std::numeric_limits<double>::infinity());
+        }
+      }
+    }
+  }
+  EXPECT_GE(certified, 40);
+  EXPECT_GE(refused, 20);
+}
+
+TEST(StabilityCertificate, RefusesTheAntiStabilizingSolutionOfAScalarDare) {
+  // a = 2, c = q = r = 1: p^2 - 4 p - 1 = 0, p = 2 +- sqrt(5). Both solve the DARE; with
+  // F = a - K_p c = a r / (c^2 p + r): the + root gives F = 2 / (3 + sqrt 5) = 0.382 (stabilizing),
+  // the - root F = 2 / (3 - sqrt 5) = 2.618. For both P - F P F^T = q + K_p^2 r > 0: the positive
+  // definiteness of P is what the proof needs, and the anti-stabilizing P = -0.236 lacks it.
+  const auto [p_plus, p_minus] = ScalarDareRoots(2.0, 1.0, 1.0, 1.0);
+  EXPECT_NEAR(p_plus, 2 + std::sqrt(5.0), 1e-14);
+  const MatrixXd A = MatrixXd::Constant(1, 1, 2.0), one = MatrixXd::Ones(1, 1);
+  for (const double p : {p_plus, p_minus}) {
+    const MatrixXd P = MatrixXd::Constant(1, 1, p);
+    EXPECT_LT(FilterDareResidual(A, one, one, one, P), 1e-15);  // both are solutions
+    const double f = 2.0 / (p + 1.0);
+    const StabilityCertificate cert = CertifyStability(MatrixXd::Constant(1, 1, f), P);
+    const double m = p - f * f * p;  // = 1 + K_p^2 > 0 for both roots
+    EXPECT_NEAR(m, 1 + std::pow(2 * p / (p + 1), 2), 1e-12);
+    if (p > 0) {
+      EXPECT_TRUE(cert.certified) << cert.message;
+      EXPECT_NEAR(f, 2 / (3 + std::sqrt(5.0)), 1e-15);
+      // 1 x 1: the bound is sqrt(1 - s / p) with s <= m = p (1 - f^2): at least f.
+      EXPECT_GE(cert.spectral_radius_bound, f);
+      EXPECT_LT(cert.spectral_radius_bound, 1.0);
+    } else {
+      EXPECT_FALSE(cert.certified) << cert.message;
+      EXPECT_NEAR(f, 2 / (3 - std::sqrt(5.0)), 1e-14);
+    }
+  }
+}
+
+TEST(StabilityCertificate, RefusesAMixedSolutionOfACoupledDare) {
+  // A rotated diag(2, 3), C = I, Q = R = I: two decoupled scalar DAREs (Q, R invariant under the
+  // rotation). Taking the stabilizing root for one mode and the anti-stabilizing one for the other
+  // gives an indefinite solution whose closed loop has one eigenvalue outside the unit circle.
+  const Eigen::Matrix2d U = Eigen::Rotation2Dd(0.4).toRotationMatrix();
+  const double a[2] = {2.0, 3.0};
+  const MatrixXd A = U * Eigen::Vector2d(a[0], a[1]).asDiagonal() * U.transpose();
+  const MatrixXd I = MatrixXd::Identity(2, 2);
+  for (int anti = 0; anti < 3; ++anti) {  // 0, 1: mode `anti` anti-stabilizing; 2: both stabilizing
+    Eigen::Vector2d p;
+    for (int i = 0; i < 2; ++i) {
+      const auto [plus, minus] = ScalarDareRoots(a[i], 1.0, 1.0, 1.0);
+      p(i) = i == anti ? minus : plus;
+    }
+    const MatrixXd P = U * p.asDiagonal() * U.transpose();
+    EXPECT_LT(FilterDareResidual(A, I, I, I, P), 1e-14);
+    const MatrixXd K_p = A * P * (P + I).inverse();
+    const MatrixXd F = A - K_p;
+    const StabilityCertificate cert = CertifyStability(F, P);
+    EXPECT_EQ(cert.certified, anti == 2) << cert.message;
+    EXPECT_EQ(Rho(F) < 1.0, anti == 2);
+  }
+}
+
+TEST(StabilityCertificate, CannotDecideMarginalOrSingularCasesButNeverClaimsStability) {
+  // (a) A rotation (rho = 1 exactly) with its invariant Gramian: X = I, X - F X F^T = 0.
+  const MatrixXd rot = Eigen::Rotation2Dd(0.7).toRotationMatrix();
+  EXPECT_FALSE(CertifyStability(rot, MatrixXd::Identity(2, 2)).certified);
+  // (b) Stable, but X only PSD (X = 0, as for Q = 0): the eigenvalues must decide.
+  EXPECT_FALSE(CertifyStability(0.5 * rot, MatrixXd::Zero(2, 2)).certified);
+  // (c) X = I > 0, but F = diag(0.5, 1) has an eigenvalue on the unit circle: M = diag(0.75, 0).
+  const MatrixXd F = (MatrixXd(2, 2) << 0.5, 0, 0, 1).finished();
+  EXPECT_FALSE(CertifyStability(F, MatrixXd::Identity(2, 2)).certified);
+  // (d) Just stable: rho = 1 - 1e-9 with the exact Gramian of Q = I: still a proof (M = I > 0),
+  //     with a bound in [rho, 1].
+  const double r = 1 - 1e-9;
+  const MatrixXd Fd = (MatrixXd(2, 2) << r, 0, 0, 0.5).finished();
+  const MatrixXd Xd = (MatrixXd(2, 2) << 1 / (1 - r * r), 0, 0, 1 / 0.75).finished();
+  const StabilityCertificate cd = CertifyStability(Fd, Xd);
+  EXPECT_TRUE(cd.certified) << cd.message;
+  EXPECT_GE(cd.spectral_radius_bound, r);
+  EXPECT_LE(cd.spectral_radius_bound, 1.0);
+  // (e) A perturbation budget larger than the stability margin of (d) must make it refuse.
+  EXPECT_FALSE(CertifyStability(Fd, Xd, 1e-6).certified);
+  EXPECT_TRUE(CertifyStability(0.5 * rot, MatrixXd::Identity(2, 2) * (1 / 0.75), 1e-3).certified);
+  // Empty and invalid input.
+  EXPECT_TRUE(CertifyStability(MatrixXd(0, 0), MatrixXd(0, 0)).certified);
+  ExpectErrorNaming("F", [&] { CertifyStability(MatrixXd::Ones(2, 3), MatrixXd::Identity(2, 2)); });
+  ExpectErrorNaming("X", [&] { CertifyStability(rot, MatrixXd::Identity(3, 3)); });
+  ExpectErrorNaming("perturbation", [&] { CertifyStability(rot, MatrixXd::Identity(2, 2), -1.0); });
+}
+
+TEST(DareCertificate, SingularNoiseFallsBackToTheEigenvalues) {
+  // Q = e1 e1^T, A stable and diagonal, C measures mode 1 only: P = diag(p, 0, 0) is singular, so
+  // the certificate cannot decide; the eigenvalues accept the (stabilizing) solution.
+  const MatrixXd A = Eigen::Vector3d(0.9, 0.5, -0.3).asDiagonal();
+  const MatrixXd C = (MatrixXd(1, 3) << 1, 0, 0).finished();
+  MatrixXd Q = MatrixXd::Zero(3, 3);
+  Q(0, 0) = 1.0;
+  const DareSolution s = SolveFilterDare(A, C, Q, MatrixXd::Ones(1, 1));
+  ASSERT_TRUE(s.summary.ok()) << s.summary.FullReport();
+  EXPECT_FALSE(s.summary.lyapunov_certified);
+  EXPECT_TRUE(s.summary.eigenvalues_exact);
+  EXPECT_NEAR(s.P_pred(0, 0), ScalarDare(0.9, 1.0, 1.0, 1.0), 1e-14);
+  const double kp = 0.9 * s.P_pred(0, 0) / (s.P_pred(0, 0) + 1);
+  EXPECT_NEAR(s.summary.closed_loop_spectral_radius, std::max(0.9 - kp, 0.5), 1e-14);
+  EXPECT_NE(s.summary.FullReport().find("eigenvalues (DGEEV)"), std::string::npos);
 }
 
 TEST(DareValidation, EveryInvalidInputThrowsNamingTheArgument) {

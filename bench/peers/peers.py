@@ -11,7 +11,7 @@ checks every solution in this script (relative residual, stabilizing, symmetric 
 from SLICOT's X; filters: difference from the numpy loop), and writes OUT/peers.json and
 OUT/peers.md (the table of docs/benchmarks.md).
 
-Usage: peers.py --driver BUILD/bench/kfx_peers --out DIR [--quick]
+Usage: peers.py --driver BUILD/bench/kfx_peers --out DIR [--quick] [--only dare|lyapunov|kf ...]
 """
 import argparse
 import json
@@ -186,15 +186,22 @@ def main():
     ap.add_argument("--driver", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--quick", action="store_true", help="small sizes only (a smoke test of the harness)")
+    ap.add_argument("--only", choices=["dare", "lyapunov", "kf"], action="append",
+                    help="run only these sections (repeatable; default: all)")
     args = ap.parse_args()
     dare_n, lyap_n, kf_n = DARE_N, LYAP_N, KF_N
     if args.quick:
         dare_n, lyap_n, kf_n = [10, 50], [10, 50], [4, 50]
+    if args.only:
+        dare_n, lyap_n, kf_n = (ns if name in args.only else [] for name, ns in
+                                (("dare", dare_n), ("lyapunov", lyap_n), ("kf", kf_n)))
     out = os.path.abspath(args.out)
     data = os.path.join(out, "data")
     os.makedirs(data, exist_ok=True)
     t_start = time.time()
     reps_for = lambda n: 7 if n <= 50 else 5 if n <= 100 else 3  # noqa: E731
+    # The DARE targets are medians of paired ratios: at least 5 pairs (3 is one outlier from a miss).
+    dare_reps = lambda n: max(5, reps_for(n))  # noqa: E731
 
     result = dict(
         machine=dict(platform=platform.platform(), processor=platform.processor(), cpus=os.cpu_count(),
@@ -221,11 +228,11 @@ def main():
         for name, M in zip("ACQR", (A, C, Q, R)):
             save(data, p + name, M)
             save_bin(data, p + name, M)
-    octave_ok = shutil_which("octave-cli") is not None
+    octave_ok = bool(dare_n) and shutil_which("octave-cli") is not None
     if octave_ok:
         log("Octave dare ...")
         script = OCTAVE_SCRIPT % dict(dir=data, ns=" ".join(map(str, dare_n)),
-                                      reps="[" + " ".join(str(reps_for(n)) for n in dare_n) + "]")
+                                      reps="[" + " ".join(str(dare_reps(n)) for n in dare_n) + "]")
         script_path = os.path.join(data, "octave_dare.m")
         with open(script_path, "w") as f:
             f.write(script)
@@ -236,14 +243,15 @@ def main():
             octave_ok = False
     for n in dare_n:
         log(f"DARE n = {n} ...")
-        m, reps, p = n // 2, reps_for(n), f"dare_{n}_"
+        m, reps, p = n // 2, dare_reps(n), f"dare_{n}_"
         A, C, Q, R = (load(data, p + x) for x in "ACQR")
         c = run_driver(args.driver, "dare", data, n, reps)
         X_sl = load(data, p + "X_sb02od")
         t_sp, X_sp = best_cpu(lambda: sla.solve_discrete_are(A.T, C.T, Q, R), reps)
         row = dict(n=n, m=m, reps=reps, kfx=c["kfx"], sb02od=c["sb02od"], scipy=t_sp,
                    kfx_info=dict(status=c["kfx_status"], method=c["kfx_method"], doubling_steps=c["kfx_steps"],
-                                 refinement_steps=c["kfx_refine"]),
+                                 refinement_steps=c["kfx_refine"], lyapunov_certified=c["kfx_lyapunov_certified"],
+                                 eigenvalues_exact=c["kfx_eigenvalues_exact"], rho_reported=c["kfx_rho_reported"]),
                    sb02od_info=c["sb02od_info"], ratio_sb02od_paired_median=float(np.median(c["paired_ratio"])))
         checks = dict(kfx=dare_check(A, C, Q, R, load(data, p + "X_kfx"), X_sl),
                       sb02od=dare_check(A, C, Q, R, X_sl, X_sl),

@@ -106,9 +106,11 @@ class DareSolution:
 class DareSummary:
     def brief_report(self: DareSummary) -> str: ...
     closed_loop_spectral_radius: float
+    eigenvalues_exact: bool
     fell_back: bool
     def full_report(self: DareSummary) -> str: ...
     iterations: int
+    lyapunov_certified: bool
     message: str
     method_used: str
     min_eigenvalue: float
@@ -520,7 +522,7 @@ def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray) -> numpy.ndarray
 
 def solve_filter_care(model: ContinuousModel) -> CareSolution: """CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}."""
 
-def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.status, never raised."""
+def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.status, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead."""
 
 def spectral_radius(A: numpy.ndarray) -> float: ...
 

@@ -467,6 +467,10 @@ void BindCore(py::module_& m) {
       .def_readonly("relative_residual", &DareSummary::relative_residual)
       .def_readonly("closed_loop_spectral_radius", &DareSummary::closed_loop_spectral_radius)
       .def_readonly("min_eigenvalue", &DareSummary::min_eigenvalue)
+      .def_readonly("eigenvalues_exact", &DareSummary::eigenvalues_exact,
+                    "True: closed_loop_spectral_radius and min_eigenvalue are eigenvalues; False: the Lyapunov "
+                    "certificate's bounds (rho <= closed_loop_spectral_radius, lambda_min(P) >= min_eigenvalue)")
+      .def_readonly("lyapunov_certified", &DareSummary::lyapunov_certified)
       .def("brief_report", &DareSummary::BriefReport)
       .def("full_report", &DareSummary::FullReport)
       .def("__repr__", &DareSummary::BriefReport);
@@ -482,19 +486,22 @@ void BindCore(py::module_& m) {
   m.def(
       "solve_filter_dare",
       [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& R,
-         const std::string& method, int max_iterations, double tolerance, bool refine) {
+         const std::string& method, int max_iterations, double tolerance, bool refine, bool exact_eigenvalues) {
         DareOptions o;
         o.method = ParseDareMethod(method);
         o.max_iterations = max_iterations;
         o.tolerance = tolerance;
         o.refine = refine;
+        o.exact_eigenvalues = exact_eigenvalues;
         return SolveFilterDare(A, C, Q, R, o);
       },
       py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"), py::arg("method") = "auto",
       py::arg("max_iterations") = 60, py::arg("tolerance") = 1e-14, py::arg("refine") = true,
+      py::arg("exact_eigenvalues") = false,
       "Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's "
       "solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.status, "
-      "never raised.");
+      "never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; "
+      "exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead.");
   m.def("filter_dare_residual", &FilterDareResidual, py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"),
         py::arg("P"));
   m.def(

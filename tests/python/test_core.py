@@ -74,12 +74,17 @@ def test_scalar_dare_is_the_positive_root(a, c, q, r, method):
 def test_double_integrator_dare_closed_form():
     # tests/riccati_test.cpp: a = 2, r = 1 gives q = 1/3, P = [2 1; 1 1], K_f = [2/3; 1/3], K_p = [1; 1/3].
     A = np.array([[1.0, 1.0], [0.0, 1.0]])
-    s = kfx.solve_filter_dare(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]])
+    s = kfx.solve_filter_dare(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]], exact_eigenvalues=True)
+    assert s.summary.eigenvalues_exact
     np.testing.assert_allclose(s.P_pred, [[2, 1], [1, 1]], atol=1e-13)
     np.testing.assert_allclose(s.filter_gain, [[2 / 3], [1 / 3]], atol=1e-14)
     np.testing.assert_allclose(s.predictor_gain, [[1], [1 / 3]], atol=1e-14)
     assert s.summary.closed_loop_spectral_radius == pytest.approx(1 / math.sqrt(3), abs=1e-14)
     assert kfx.filter_dare_residual(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]], s.P_pred) < 1e-14
+    # Default: stability proven by the Lyapunov certificate, which reports an upper bound on rho.
+    b = kfx.solve_filter_dare(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]])
+    assert b.summary.lyapunov_certified and not b.summary.eigenvalues_exact
+    assert 1 / math.sqrt(3) <= b.summary.closed_loop_spectral_radius < 1
 
 
 def test_golden_ratio_and_lyapunov():
