@@ -2,6 +2,7 @@
 // full filters (004 eqs. (3)-(17)). Steady state, Prop. 2.2 and the identical-subsystem reduction are
 // in block_diagonal_analysis.cpp.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <type_traits>
 
@@ -13,6 +14,14 @@
 #include "block_diagonal_internal.hpp"  // the range-based passes defined at the end of this file
 
 namespace kfx {
+
+namespace detail {
+namespace {
+std::atomic<bool> specialized_kernels{true};
+}  // namespace
+bool SpecializedKernels() { return specialized_kernels.load(std::memory_order_relaxed); }
+void SetBlockDiagonalSpecializedKernels(bool enabled) { specialized_kernels.store(enabled); }
+}  // namespace detail
 
 using Eigen::Index;
 using Eigen::MatrixXd;
@@ -77,15 +86,42 @@ void BlockRowsTimesImpl(const double* bl, Index a_rt, Index b_rt, Index nb, cons
   }
 }
 
+// dst = blockdiag(blocks_i) src for nb blocks a x b stored contiguously (column-major) from bl.
+void BlockRowsTimesRaw(const double* bl, Index a, Index b, Index nb, const double* src, Index src_ld, double* dst,
+                       Index dst_ld, Index cols) {
+  if (detail::SpecializedKernels()) {
+    if (a == 1 && b == 1) return BlockRowsTimesImpl<1, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+    if (a == 1 && b == 2) return BlockRowsTimesImpl<1, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+    if (a == 2 && b == 1) return BlockRowsTimesImpl<2, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+    if (a == 2 && b == 2) return BlockRowsTimesImpl<2, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+  }
+  BlockRowsTimesImpl<0, 0>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+}
+
 void BlockRowsTimes(const MatrixXd& blocks, Index b, Index i0, Index nb, const double* src, Index src_ld, double* dst,
                     Index dst_ld, Index cols) {
   const Index a = blocks.rows();
-  const double* bl = blocks.data() + i0 * a * b;
-  if (a == 1 && b == 1) return BlockRowsTimesImpl<1, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
-  if (a == 1 && b == 2) return BlockRowsTimesImpl<1, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
-  if (a == 2 && b == 1) return BlockRowsTimesImpl<2, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
-  if (a == 2 && b == 2) return BlockRowsTimesImpl<2, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
-  BlockRowsTimesImpl<0, 0>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+  BlockRowsTimesRaw(blocks.data() + i0 * a * b, a, b, nb, src, src_ld, dst, dst_ld, cols);
+}
+
+// Block i of a packed matrix as the (fixed-size when possible) type Mat, and back.
+template <typename Mat>
+Mat LoadBlock(const MatrixXd& m, Index i, Index cols) {
+  if constexpr (Mat::RowsAtCompileTime != Eigen::Dynamic && Mat::ColsAtCompileTime != Eigen::Dynamic) {
+    constexpr int R = Mat::RowsAtCompileTime, C = Mat::ColsAtCompileTime;
+    return Eigen::Map<const Eigen::Matrix<double, R, C>>(m.data() + i * cols * m.rows());  // column-major
+  } else {
+    return BlockOf(m, i, cols);
+  }
+}
+template <typename Expr>
+void StoreBlock(const Expr& e, MatrixXd& m, Index i, Index cols) {
+  constexpr int R = Expr::RowsAtCompileTime, C = Expr::ColsAtCompileTime;
+  if constexpr (R != Eigen::Dynamic && C != Eigen::Dynamic) {
+    Eigen::Map<Eigen::Matrix<double, R, C>>(m.data() + i * cols * m.rows()) = e;  // default: column-major storage
+  } else {
+    BlockOf(m, i, cols) = e;
+  }
 }
 
 // The per-subsystem Kalman step shared by the block-diagonal filter (Q = V: eqs. (9), (14), (15))
@@ -99,12 +135,12 @@ void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const Matrix
                           MatrixXd& J, MatrixXd& P_out) {
   const Index c = s.c(), d = s.d();
   for (Index i = i0; i < i1; ++i) {
-    const MatC F = BlockOf(s.F, i, c);
-    const MatDC H = BlockOf(s.H, i, c);
-    MatC L = F * MatC(BlockOf(Pp, i, c)) * F.transpose() + MatC(BlockOf(Q, i, c));
+    const MatC F = LoadBlock<MatC>(s.F, i, c);
+    const MatDC H = LoadBlock<MatDC>(s.H, i, c);
+    MatC L = F.lazyProduct(LoadBlock<MatC>(Pp, i, c)).lazyProduct(F.transpose()) + LoadBlock<MatC>(Q, i, c);
     L = (0.5 * (L + L.transpose())).eval();
     const MatDC HL = H * L;
-    const MatD M = HL * H.transpose() + MatD(BlockOf(s.R, i, d));
+    const MatD M = HL * H.transpose() + LoadBlock<MatD>(s.R, i, d);
     MatDC Jt;  // M^{-1} H L = J^T
     if constexpr (MatD::RowsAtCompileTime == 1) {
       const double m = M(0, 0);
@@ -113,9 +149,9 @@ void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const Matrix
       }
       Jt = HL / m;
       if (rinv) rinv[i - i0] = 1.0 / std::sqrt(m);
-      BlockOf(J, i, d) = Jt.transpose();
+      StoreBlock(Jt.transpose(), J, i, d);
       const MatC A = L - Jt.transpose() * HL;
-      BlockOf(P_out, i, c) = 0.5 * (A + A.transpose());
+      StoreBlock(0.5 * (A + A.transpose()), P_out, i, c);
       continue;
     }
     const Eigen::LLT<MatD> llt(M);
@@ -134,9 +170,58 @@ void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const Matrix
         Eigen::Map<MatrixXd>(rinv + (i - i0) * d * d, d, d) = llt.matrixU().solve(MatD::Identity(d, d));
       }
     }
-    BlockOf(J, i, d) = Jt.transpose();
+    StoreBlock(Jt.transpose(), J, i, d);
     const MatC A = L - Jt.transpose() * HL;
-    BlockOf(P_out, i, c) = 0.5 * (A + A.transpose());
+    StoreBlock(0.5 * (A + A.transpose()), P_out, i, c);
+  }
+}
+
+// The same step for d = 1 and c = C fixed, as plain scalar loops (about twice faster per subsystem
+// than the fixed-size Eigen expressions above at c = 2, which the compiler did not fully inline).
+template <int C>
+void ScalarMeasurementKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Q, Index i0, Index i1,
+                                  double* rinv, MatrixXd& J, MatrixXd& P_out) {
+  for (Index i = i0; i < i1; ++i) {
+    const double* f = s.F.data() + i * C * C;
+    const double* p = Pp.data() + i * C * C;
+    const double* q = Q.data() + i * C * C;
+    const double* h = s.H.data() + i * C;
+    double fp[C * C], L[C * C], hl[C], jt[C];
+    for (int b = 0; b < C; ++b)
+      for (int a = 0; a < C; ++a) {
+        double acc = 0.0;
+        for (int t = 0; t < C; ++t) acc += f[t * C + a] * p[b * C + t];
+        fp[b * C + a] = acc;  // (F P)(a, b)
+      }
+    for (int b = 0; b < C; ++b)
+      for (int a = 0; a < C; ++a) {
+        double acc = 0.0;
+        for (int t = 0; t < C; ++t) acc += fp[t * C + a] * f[t * C + b];
+        L[b * C + a] = acc + q[b * C + a];  // (F P F^T + Q)(a, b)
+      }
+    for (int b = 0; b < C; ++b)
+      for (int a = b + 1; a < C; ++a) L[b * C + a] = L[a * C + b] = 0.5 * (L[b * C + a] + L[a * C + b]);
+    double m = s.R.data()[i];
+    for (int b = 0; b < C; ++b) {
+      double acc = 0.0;
+      for (int a = 0; a < C; ++a) acc += h[a] * L[b * C + a];
+      hl[b] = acc;  // (H L)(b)
+      m += acc * h[b];
+    }
+    if (!(m > 0.0) || !std::isfinite(m)) {
+      throw NumericalError("M (block " + std::to_string(i) + "): H L H^T + R is not positive");
+    }
+    for (int b = 0; b < C; ++b) jt[b] = hl[b] / m;
+    if (rinv) rinv[i - i0] = 1.0 / std::sqrt(m);
+    double* j = J.data() + i * C;
+    double* po = P_out.data() + i * C * C;
+    for (int b = 0; b < C; ++b) {
+      j[b] = jt[b];
+      for (int a = 0; a <= b; ++a) {
+        po[b * C + a] = po[a * C + b] =
+            0.5 * ((L[b * C + a] - jt[a] * hl[b]) + (L[a * C + b] - jt[b] * hl[a]));  // L - J H L, symmetrized
+      }
+    }
   }
 }
 
@@ -144,11 +229,20 @@ void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const Matrix
                           MatrixXd& J, MatrixXd& P_out) {
   using Eigen::Matrix;
   const Index c = s.c(), d = s.d();
-  if (c == 1 && d == 1) {
-    SubsystemKalmanSteps<Matrix<double, 1, 1>, Matrix<double, 1, 1>, Matrix<double, 1, 1>>(s, Pp, Q, i0, i1, rinv, J,
-                                                                                           P_out);
+  if (!detail::SpecializedKernels()) {
+    if (c <= kMaxSmall && d <= kMaxSmall) {
+      SubsystemKalmanSteps<Small, Small, Small>(s, Pp, Q, i0, i1, rinv, J, P_out);
+    } else {
+      SubsystemKalmanSteps<MatrixXd, MatrixXd, MatrixXd>(s, Pp, Q, i0, i1, rinv, J, P_out);
+    }
+  } else if (c == 1 && d == 1) {
+    ScalarMeasurementKalmanSteps<1>(s, Pp, Q, i0, i1, rinv, J, P_out);
   } else if (c == 2 && d == 1) {
-    SubsystemKalmanSteps<Eigen::Matrix2d, Matrix<double, 1, 1>, Matrix<double, 1, 2>>(s, Pp, Q, i0, i1, rinv, J, P_out);
+    ScalarMeasurementKalmanSteps<2>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else if (c == 3 && d == 1) {
+    ScalarMeasurementKalmanSteps<3>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else if (c == 4 && d == 1) {
+    ScalarMeasurementKalmanSteps<4>(s, Pp, Q, i0, i1, rinv, J, P_out);
   } else if (c == 2 && d == 2) {
     SubsystemKalmanSteps<Eigen::Matrix2d, Eigen::Matrix2d, Eigen::Matrix2d>(s, Pp, Q, i0, i1, rinv, J, P_out);
   } else if (c <= kMaxSmall && d <= kMaxSmall) {
@@ -158,149 +252,159 @@ void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const Matrix
   }
 }
 
-// Pass 1 of the coupling terms for the subsystems of one chunk, in the transposed layout where each
-// subsystem's r-vectors are contiguous (local block l, global i = i0 + l):
-//   HG_i^T = G_i^T H_i^T (r x d),  Z_i^T = HG_i^T R_c^{-1} (so Z^T Z = HG^T M^{-1} HG, eq. (16)),
-//   Y_i^T = Z_i^T R_c^{-T} = (M^{-1} H G)_i^T,  E_i^T = HG_i^T J_i^T - G_i^T (eq. (10) minus G).
-// C, D > 0 fix c and d at compile time (the common shapes), Eigen::Dynamic takes them from c, d.
-// Yt and Et may be null (not stored).
+// B_i = R_c^{-T} H_i (d x c) for nb subsystems, packed contiguously, from H_i (d x c, packed from h) and
+// the Cholesky inverses R_c^{-1} (d x d, column-major, as SubsystemKalmanSteps writes them). Z_i =
+// B_i G_i then gives Z^T Z = G^T H^T M^{-1} H G (eq. (16)), M = R_c^T R_c.
 template <int C, int D>
-void CouplingPass1(Index c, Index d, Index r, Index nb, const double* H, const double* J, const double* rinv,
-                   const double* Gt, double* hg_buf, double* Zt, double* Yt, double* Et) {
-  using Eigen::Map;
-  using Eigen::Matrix;
-  using MatRC = Matrix<double, Eigen::Dynamic, C>;
-  using MatRD = Matrix<double, Eigen::Dynamic, D>;
-  Map<MatRD> hg(hg_buf, r, d);
-  for (Index l = 0; l < nb; ++l) {
-    const Map<const MatRC> g(Gt + l * r * c, r, c);
-    const Map<const Matrix<double, D, C>> h(H + l * d * c, d, c);
-    const Map<const Matrix<double, C, D>> j(J + l * c * d, c, d);
-    const Map<const Matrix<double, D, D>> ri(rinv + l * d * d, d, d);
-    hg.noalias() = g.lazyProduct(h.transpose());
-    Map<MatRD> zt(Zt + l * r * d, r, d);
-    zt.noalias() = hg.lazyProduct(ri);
-    if (Yt) Map<MatRD>(Yt + l * r * d, r, d).noalias() = zt.lazyProduct(ri.transpose());
-    if (Et) {
-      Map<MatRC> et(Et + l * r * c, r, c);
-      et.noalias() = hg.lazyProduct(j.transpose());
-      et -= g;
-    }
-  }
-}
-
-// E_i^T = HG_i^T J_i^T - G_i^T (eq. (10) minus G) for d = 1, from z = HG_i^T (r) and G_i^T (r x c).
-inline void ScalarMeasurementEt(Index c, Index r, const double* jl, const double* z, const double* g, double* e) {
-  for (Index q = 0; q < c; ++q) {
-    const double jq = jl[q];
-    const double* gq = g + q * r;
-    double* eq = e + q * r;
-    for (Index t = 0; t < r; ++t) eq[t] = jq * z[t] - gq[t];
-  }
-}
-
-// HG_i^T = G_i^T H_i^T (r) for d = 1, accumulated over the c states.
-inline void ScalarMeasurementHG(Index c, Index r, const double* h, const double* g, double* z) {
-  for (Index t = 0; t < r; ++t) z[t] = h[0] * g[t];
-  for (Index q = 1; q < c; ++q) {
-    const double hq = h[q];
-    const double* gq = g + q * r;
-    for (Index t = 0; t < r; ++t) z[t] += hq * gq[t];
-  }
-}
-
-// Pass 1 for d = 1 (one measurement per subsystem, the common case) as plain loops along r, which
-// the compiler vectorizes (src/CMakeLists.txt enables loop vectorization for this file); one call
-// per chunk, not per subsystem. Block l of Gt / Et is r x c, of Zt / Yt r x 1; h_q, J_q and
-// M^{-1/2} come from the packed 1 x c, c x 1 and 1 x 1 blocks. Yt and Et may be null (not stored).
-void CouplingPass1ScalarMeasurement(Index c, Index r, Index nb, const double* H, const double* J, const double* rinv,
-                                    const double* Gt, double* Zt, double* Yt, double* Et) {
-  for (Index l = 0; l < nb; ++l) {
-    const double* g = Gt + l * r * c;
-    double* z = Zt + l * r;
-    ScalarMeasurementHG(c, r, H + l * c, g, z);
-    if (Et) ScalarMeasurementEt(c, r, J + l * c, z, g, Et + l * r * c);
-    const double ri = rinv[l];
-    for (Index t = 0; t < r; ++t) z[t] *= ri;  // Z^T = HG^T M^{-1/2}
-    if (Yt) {
-      double* y = Yt + l * r;
-      for (Index t = 0; t < r; ++t) y[t] = ri * z[t];
-    }
-  }
-}
-
-// E^T of one chunk (r x nb c) recomputed from G^T, H and J, for pass 2 when E was not stored.
-template <int C, int D>
-void CouplingEt(Index c, Index d, Index r, Index nb, const double* H, const double* J, const double* Gt, double* hg_buf,
-                double* Et) {
+void WhitenedMeasurementImpl(Index c_rt, Index d_rt, Index nb, const double* h, const double* rinv, double* B) {
+  const Index c = C > 0 ? C : c_rt, d = D > 0 ? D : d_rt;
   if (d == 1) {
-    for (Index l = 0; l < nb; ++l) {
-      const double* g = Gt + l * r * c;
-      ScalarMeasurementHG(c, r, H + l * c, g, hg_buf);
-      ScalarMeasurementEt(c, r, J + l * c, hg_buf, g, Et + l * r * c);
-    }
+    for (Index l = 0; l < nb; ++l)
+      for (Index q = 0; q < c; ++q) B[l * c + q] = rinv[l] * h[l * c + q];
     return;
   }
-  using Eigen::Map;
-  using Eigen::Matrix;
-  using MatRC = Matrix<double, Eigen::Dynamic, C>;
-  using MatRD = Matrix<double, Eigen::Dynamic, D>;
-  Map<MatRD> hg(hg_buf, r, d);
   for (Index l = 0; l < nb; ++l) {
-    const Map<const MatRC> g(Gt + l * r * c, r, c);
-    const Map<const Matrix<double, D, C>> h(H + l * d * c, d, c);
-    const Map<const Matrix<double, C, D>> j(J + l * c * d, c, d);
-    hg.noalias() = g.lazyProduct(h.transpose());
-    Map<MatRC> et(Et + l * r * c, r, c);
-    et.noalias() = hg.lazyProduct(j.transpose());
-    et -= g;
+    const double* ri = rinv + l * d * d;
+    const double* hl = h + l * d * c;
+    double* bl = B + l * d * c;
+    for (Index q = 0; q < c; ++q)
+      for (Index p = 0; p < d; ++p) {
+        double acc = 0.0;
+        for (Index a = 0; a <= p; ++a) acc += ri[p * d + a] * hl[q * d + a];  // (R_c^{-1})_{ap}, upper triangular
+        bl[q * d + p] = acc;
+      }
   }
 }
 
-// G_chunk^T (r x m) from rows [row0, row0 + m) of G ((n c) x r, column-major), in tiles of 8 rows so
-// that both the reads and the writes stay within a few cache lines (measured faster than one pass
-// per column at n = 1e3 .. 1e6).
-void TransposeRows(const MatrixXd& G, Index row0, Index m, double* Gt) {
-  const Index r = G.cols(), ld = G.rows();
-  constexpr Index kTile = 8;
-  for (Index i = 0; i < m; i += kTile) {
-    const Index ib = std::min(kTile, m - i);
-    for (Index j = 0; j < r; ++j) {
-      const double* src = G.data() + j * ld + row0 + i;
-      for (Index q = 0; q < ib; ++q) Gt[(i + q) * r + j] = src[q];
-    }
+// A_i = J_i H_i - I (c x c) for nb subsystems, packed contiguously: E_i = B_i - G_i = A_i G_i (eq. (10)
+// minus G), so E never has to be formed or stored to apply it.
+template <int C, int D>
+void GainResidualImpl(Index c_rt, Index d_rt, Index nb, const double* j, const double* h, double* A) {
+  const Index c = C > 0 ? C : c_rt, d = D > 0 ? D : d_rt;
+  for (Index l = 0; l < nb; ++l) {
+    const double* jl = j + l * c * d;
+    const double* hl = h + l * d * c;
+    double* al = A + l * c * c;
+    for (Index q = 0; q < c; ++q)
+      for (Index p = 0; p < c; ++p) {
+        double acc = p == q ? -1.0 : 0.0;
+        for (Index a = 0; a < d; ++a) acc += jl[a * c + p] * hl[q * d + a];
+        al[q * c + p] = acc;
+      }
   }
 }
 
-// Pass 2 for one chunk, all subsystems at once: P_i(a, b) += <column a, column b of W_i^T>, as
-// column sums over strided column sets (vectorized along k).
-void CouplingPass2Strided(Index c, Index k, Index nb, const double* Wt, double* P) {
-  using Eigen::InnerStride;
-  using Eigen::OuterStride;
-  using Cols = Eigen::Map<const MatrixXd, 0, OuterStride<>>;
-  using RowOut = Eigen::Map<Eigen::RowVectorXd, 0, InnerStride<>>;
-  for (Index a = 0; a < c; ++a) {
-    const Cols wa(Wt + a * k, k, nb, OuterStride<>(k * c));
-    for (Index b = 0; b <= a; ++b) {
-      const Cols wb(Wt + b * k, k, nb, OuterStride<>(k * c));
-      RowOut pab(P + b * c + a, nb, InnerStride<>(c * c));
-      pab += (wa.array() * wb.array()).matrix().colwise().sum();
-      if (b != a) RowOut(P + a * c + b, nb, InnerStride<>(c * c)) = pab;
-    }
-  }
+// The fixed-shape instances for the common (c, d) in {1, 2} x {1, 2}, else the generic one.
+template <typename Body>
+void DispatchSmall(Index c, Index d, Body&& body) {
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  using Gen = std::integral_constant<int, 0>;
+  if (!detail::SpecializedKernels()) return body(Gen{}, Gen{});
+  if (c == 2 && d == 1) return body(Two{}, One{});
+  if (c == 1 && d == 1) return body(One{}, One{});
+  if (c == 2 && d == 2) return body(Two{}, Two{});
+  if (c == 1 && d == 2) return body(One{}, Two{});
+  body(Gen{}, Gen{});
 }
 
-// Pass 2 for one chunk: P_i += W_i W_i^T with W_i^T the k x c block l of Wt (eq. (8) with
-// C_2 = C_1, C_3 = -C_1 and C_1 = Fc Fc^T, W = E Fc).
+void WhitenedMeasurement(Index c, Index d, Index nb, const double* h, const double* rinv, double* B) {
+  DispatchSmall(c, d, [&](auto C, auto D) {
+    WhitenedMeasurementImpl<decltype(C)::value, decltype(D)::value>(c, d, nb, h, rinv, B);
+  });
+}
+
+void GainResidual(Index c, Index d, Index nb, const double* j, const double* h, double* A) {
+  DispatchSmall(c, d,
+                [&](auto C, auto D) { GainResidualImpl<decltype(C)::value, decltype(D)::value>(c, d, nb, j, h, A); });
+}
+
+// Gram blocks of W ((nb c) x k, column-major, leading dimension ldw): T_i = W_i W_i^T with W_i rows
+// [i c, (i + 1) c). T is c x (nb c) scratch: T_i(a, b), a >= b, lands at T[(a - b) nb c + i c + b],
+// the sum over columns t of w_j w_{j + delta} (j = i c + b, delta = a - b). For fixed C these sums
+// run over blocks of 8 consecutive rows held in registers across all k columns (the loops vectorize;
+// the few products that straddle two subsystems are not used); the generic version loops per
+// subsystem.
 template <int C>
-void CouplingPass2(Index c, Index k, Index nb, const double* Wt, double* P) {
-  using Eigen::Map;
-  using Eigen::Matrix;
-  for (Index l = 0; l < nb; ++l) {
-    const Map<const Matrix<double, Eigen::Dynamic, C>> w(Wt + l * k * c, k, c);
-    Map<Matrix<double, C, C>> Pi(P + l * c * c, c, c);
-    Pi.noalias() += w.transpose().lazyProduct(w);
+void GramBlocksImpl(Index c_rt, Index k, Index nb, const double* W, Index ldw, double* T) {
+  static_assert(C <= 4, "fixed-size Gram kernel for c <= 4");
+  const Index c = C > 0 ? C : c_rt, m = nb * c;
+  Index j0 = 0;
+  if constexpr (C > 0) {
+    constexpr Index kB = 8;
+    using Rows = Eigen::Array<double, kB, 1>;  // fixed size: Eigen unrolls it into register packets
+    for (; j0 + kB + C - 1 <= m; j0 += kB) {
+      // Named accumulators (not an array) so that they stay in registers.
+      Rows acc0 = Rows::Zero(), acc1 = Rows::Zero(), acc2 = Rows::Zero(), acc3 = Rows::Zero();
+      for (Index t = 0; t < k; ++t) {
+        const double* w = W + t * ldw + j0;
+        const Rows w0 = Eigen::Map<const Rows>(w);
+        acc0 += w0 * w0;
+        if constexpr (C > 1) acc1 += w0 * Eigen::Map<const Rows>(w + 1);
+        if constexpr (C > 2) acc2 += w0 * Eigen::Map<const Rows>(w + 2);
+        if constexpr (C > 3) acc3 += w0 * Eigen::Map<const Rows>(w + 3);
+      }
+      Eigen::Map<Rows>(T + j0) = acc0;
+      if constexpr (C > 1) Eigen::Map<Rows>(T + m + j0) = acc1;
+      if constexpr (C > 2) Eigen::Map<Rows>(T + 2 * m + j0) = acc2;
+      if constexpr (C > 3) Eigen::Map<Rows>(T + 3 * m + j0) = acc3;
+    }
   }
+  for (Index j = j0; j < m; ++j) {  // the rest (all of it in the generic version)
+    const Index b = j % c;
+    for (Index delta = 0; b + delta < c; ++delta) {
+      double acc = 0.0;
+      for (Index t = 0; t < k; ++t) acc += W[t * ldw + j] * W[t * ldw + j + delta];
+      T[delta * m + j] = acc;
+    }
+  }
+}
+
+// P_i += A_i T_i A_i^T for nb subsystems, with T_i from GramBlocks (structure of arrays) and A_i packed
+// c x c; the lower triangle is computed and mirrored, so P stays exactly symmetric.
+template <int C>
+void CongruenceSoAImpl(Index c_rt, Index nb, const double* A, const double* T, double* P) {
+  const Index c = C > 0 ? C : c_rt;
+  double stack_buf[C > 0 ? C * C : 1];
+  std::vector<double> heap_buf(C > 0 ? 0 : c * c);
+  double* tl = C > 0 ? stack_buf : heap_buf.data();
+  for (Index l = 0; l < nb; ++l) {
+    const double* a = A + l * c * c;
+    for (Index i = 0; i < c; ++i)
+      for (Index j = 0; j <= i; ++j) tl[j * c + i] = tl[i * c + j] = T[(i - j) * nb * c + l * c + j];
+    double* p = P + l * c * c;
+    for (Index i = 0; i < c; ++i)
+      for (Index j = 0; j <= i; ++j) {
+        double acc = 0.0;
+        for (Index q = 0; q < c; ++q) {
+          double at = 0.0;  // (A_i T_i)(i, q)
+          for (Index s = 0; s < c; ++s) at += a[s * c + i] * tl[q * c + s];
+          acc += at * a[q * c + j];
+        }
+        p[j * c + i] += acc;
+        if (j != i) p[i * c + j] = p[j * c + i];
+      }
+  }
+}
+
+void GramBlocks(Index c, Index k, Index nb, const double* W, Index ldw, double* T) {
+  if (detail::SpecializedKernels()) {
+    if (c == 1) return GramBlocksImpl<1>(c, k, nb, W, ldw, T);
+    if (c == 2) return GramBlocksImpl<2>(c, k, nb, W, ldw, T);
+    if (c == 3) return GramBlocksImpl<3>(c, k, nb, W, ldw, T);
+    if (c == 4) return GramBlocksImpl<4>(c, k, nb, W, ldw, T);
+  }
+  GramBlocksImpl<0>(c, k, nb, W, ldw, T);
+}
+
+void CongruenceSoA(Index c, Index nb, const double* A, const double* T, double* P) {
+  if (detail::SpecializedKernels()) {
+    if (c == 1) return CongruenceSoAImpl<1>(c, nb, A, T, P);
+    if (c == 2) return CongruenceSoAImpl<2>(c, nb, A, T, P);
+    if (c == 3) return CongruenceSoAImpl<3>(c, nb, A, T, P);
+    if (c == 4) return CongruenceSoAImpl<4>(c, nb, A, T, P);
+  }
+  CongruenceSoAImpl<0>(c, nb, A, T, P);
 }
 
 }  // namespace
@@ -513,13 +617,14 @@ struct EstimateFold {
 
 // Eqs. (8)-(17) over all subsystems, through the range passes below (the distributed filter runs the
 // same passes per slice): BlockDiagonalCovarianceUpdate stores the gain (E^T, Y^T: O(n r) doubles);
-// CoupledFilter does not, and has K nu applied inside the passes. Without the stored gain each
-// subsystem's data are streamed twice per step (G twice, 2 x 8 c r bytes) instead of about six times,
-// which is what keeps the step linear in n once the arrays leave the cache.
+// CoupledFilter does not, and has K nu applied inside the passes. Neither pass reads E^T or Y^T (both
+// work from G in place), so without the stored gain each subsystem's G rows are streamed twice per
+// step and nothing r-wide is written: the step stays linear in n once the arrays leave the cache.
+// The scratch is per chunk (O(256 r) doubles) and kept per thread, so steps allocate nothing.
 void BlockDiagonalUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep& out, bool store_gain,
                          const EstimateFold* est) {
   const Index n = s.n(), r = s.r();
-  detail::BlockDiagonalWorkspace ws;
+  thread_local detail::BlockDiagonalWorkspace ws;
   detail::BlockDiagonalResize(s, store_gain, &out);
   MatrixXd N = MatrixXd::Zero(r, r);
   VectorXd ytnu = VectorXd::Zero(est ? r : 0);
@@ -707,12 +812,11 @@ void CoupledFilter::Update(const CoupledStep& s, const VectorXd& nu, VectorXd x)
   switch (kind_) {
     case CoupledFilterKind::kBlockDiagonal: {
       // The covariance passes apply the gain as they go (no separate passes over E and Y for K nu and
-      // mu_u; work_'s buffers are reused from step to step). The gain is stored: recomputing E from G
-      // in pass 2 (store_gain = false, what the distributed slices do to save memory) measured slower
-      // here at every n from 1e3 to 1e6.
+      // mu_u; work_'s buffers are reused from step to step). The gain is not stored: the passes never
+      // read it (they apply E = A G from G in place), so writing E^T, Y^T would only cost bandwidth.
       RequirePackedCovariance("P", P_, s.c(), s.n());
       const EstimateFold fold{nu.data(), x.data(), &mu_u_};
-      BlockDiagonalUpdate(s, P_, work_, /*store_gain=*/true, &fold);
+      BlockDiagonalUpdate(s, P_, work_, /*store_gain=*/false, &fold);
       sigma_u_ = work_.gain.C1;
       P_.swap(work_.P_filt);
       break;
@@ -857,24 +961,6 @@ CoupledTrajectory SimulateCoupled(const CoupledSystem& system, int steps, std::u
 
 namespace kfx::detail {
 
-namespace {
-template <typename Body>
-void DispatchShapes(Index c, Index d, Body&& body) {
-  using One = std::integral_constant<int, 1>;
-  using Two = std::integral_constant<int, 2>;
-  using Dyn = std::integral_constant<int, Eigen::Dynamic>;
-  if (c == 2 && d == 1) {
-    body(Two{}, One{});
-  } else if (c == 1 && d == 1) {
-    body(One{}, One{});
-  } else if (c == 2 && d == 2) {
-    body(Two{}, Two{});
-  } else {
-    body(Dyn{}, Dyn{});
-  }
-}
-}  // namespace
-
 void BlockDiagonalResize(const CoupledStep& s, bool store_gain, BlockDiagonalCovarianceStep* out) {
   const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
   out->P_filt.resize(c, n * c);
@@ -882,6 +968,19 @@ void BlockDiagonalResize(const CoupledStep& s, bool store_gain, BlockDiagonalCov
   out->gain.Yt.resize(r, store_gain ? n * d : 0);
   out->gain.Et.resize(r, store_gain ? n * c : 0);
 }
+
+namespace {
+// A workspace buffer of at least `size` doubles (kept across steps).
+double* Buffer(VectorXd& v, Index size) {
+  if (v.size() < size) v.resize(size);
+  return v.data();
+}
+// Rows [row0, row0 + rows) of G, all r columns, in place (leading dimension n c).
+using ConstStrided = Eigen::Map<const MatrixXd, 0, Eigen::OuterStride<>>;
+ConstStrided GRows(const MatrixXd& G, Index row0, Index rows) {
+  return ConstStrided(G.data() + row0, rows, G.cols(), Eigen::OuterStride<>(std::max<Index>(G.rows(), 1)));
+}
+}  // namespace
 
 void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Index i1, const double* nu,
                         BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out, MatrixXd* N, VectorXd* ytnu) {
@@ -893,42 +992,41 @@ void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Inde
   }
   const bool store_gain = g.Et.cols() > 0;
   const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
-  if (w->Gt.rows() != r || w->Gt.cols() < chunk * c) w->Gt.resize(r, chunk * c);
-  if (w->Zt.rows() != r || w->Zt.cols() < chunk * d) w->Zt.resize(r, chunk * d);
-  w->hg.resize(r, d);
-  if (w->rinv.size() < chunk * d * d) w->rinv.resize(chunk * d * d);
-  if (nu && w->rnu.size() < chunk * d) w->rnu.resize(chunk * d);
-  DispatchShapes(c, d, [&](auto C, auto D) {
-    for (Index b0 = i0; b0 < i1; b0 += chunk) {
-      const Index nb = std::min(chunk, i1 - b0);
-      SubsystemKalmanSteps(s, Pp, s.V, b0, b0 + nb, w->rinv.data(), g.J, out->P_filt);
-      TransposeRows(s.G, b0 * c, nb * c, w->Gt.data());
-      double* yt = store_gain ? g.Yt.data() + b0 * d * r : nullptr;
-      double* et = store_gain ? g.Et.data() + b0 * c * r : nullptr;
-      if (d == 1) {
-        CouplingPass1ScalarMeasurement(c, r, nb, s.H.data() + b0 * c, g.J.data() + b0 * c, w->rinv.data(), w->Gt.data(),
-                                       w->Zt.data(), yt, et);
-      } else {
-        CouplingPass1<decltype(C)::value, decltype(D)::value>(c, d, r, nb, s.H.data() + b0 * d * c,
-                                                              g.J.data() + b0 * c * d, w->rinv.data(), w->Gt.data(),
-                                                              w->hg.data(), w->Zt.data(), yt, et);
-      }
-      N->selfadjointView<Eigen::Lower>().rankUpdate(w->Zt.leftCols(nb * d));
-      if (nu) {  // Y^T nu = Z^T (R_c^{-T} nu); plain loops: per-subsystem Eigen products would be BLAS calls
-        const double* ri = w->rinv.data();
-        const double* nub = nu + b0 * d;
-        double* rn = w->rnu.data();
-        for (Index l = 0; l < nb; ++l) {
-          for (Index a = 0; a < d; ++a) {
-            double acc = 0.0;
-            for (Index b = 0; b < d; ++b) acc += ri[l * d * d + a * d + b] * nub[l * d + b];  // (R_c^{-1})_{ba}
-            rn[l * d + a] = acc;
-          }
+  double* rinv = Buffer(w->rinv, chunk * d * d);
+  double* B = Buffer(w->B, chunk * d * c);
+  double* Z = Buffer(w->Z, chunk * d * r);
+  double* rnu = nu ? Buffer(w->rnu, chunk * d) : nullptr;
+  for (Index b0 = i0; b0 < i1; b0 += chunk) {
+    const Index nb = std::min(chunk, i1 - b0);
+    SubsystemKalmanSteps(s, Pp, s.V, b0, b0 + nb, rinv, g.J, out->P_filt);
+    // Z = blockdiag(R_c^{-T} H_i) G_chunk ((nb d) x r), read from G in place, one column sweep.
+    WhitenedMeasurement(c, d, nb, s.H.data() + b0 * d * c, rinv, B);
+    const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
+    BlockRowsTimesRaw(B, d, c, nb, Gc.data(), Gc.outerStride(), Z, nb * d, r);
+    const Eigen::Map<const MatrixXd> Zc(Z, nb * d, r);
+    N->selfadjointView<Eigen::Lower>().rankUpdate(Zc.transpose());  // one DSYRK per chunk
+    if (nu) {                                                       // Y^T nu = Z^T (R_c^{-T} nu)
+      const double* nub = nu + b0 * d;
+      for (Index l = 0; l < nb; ++l) {
+        for (Index a = 0; a < d; ++a) {
+          double acc = 0.0;
+          for (Index b = 0; b <= a; ++b) acc += rinv[l * d * d + a * d + b] * nub[l * d + b];  // (R_c^{-1})_{ba}
+          rnu[l * d + a] = acc;
         }
-        ytnu->noalias() += w->Zt.leftCols(nb * d) * w->rnu.head(nb * d);
       }
+      ytnu->noalias() += Zc.transpose() * Eigen::Map<const VectorXd>(rnu, nb * d);
     }
-  });
+    if (store_gain) {
+      // Y_i = M_i^{-1} H_i G_i = R_c^{-1} Z_i and E_i = A_i G_i, stored transposed (r x d, r x c blocks).
+      double* Y = Buffer(w->Wt, nb * std::max(c, d) * r);
+      BlockRowsTimesRaw(rinv, d, d, nb, Z, nb * d, Y, nb * d, r);
+      g.Yt.middleCols(b0 * d, nb * d) = Eigen::Map<const MatrixXd>(Y, nb * d, r).transpose();
+      double* A = Buffer(w->A, nb * c * c);
+      GainResidual(c, d, nb, g.J.data() + b0 * c * d, s.H.data() + b0 * d * c, A);
+      BlockRowsTimesRaw(A, c, c, nb, Gc.data(), Gc.outerStride(), Y, nb * c, r);
+      g.Et.middleCols(b0 * c, nb * c) = Eigen::Map<const MatrixXd>(Y, nb * c, r).transpose();
+    }
+  }
 }
 
 MatrixXd BlockDiagonalFactor(const MatrixXd& U, const MatrixXd& N, MatrixXd* C1) {
@@ -948,45 +1046,38 @@ void BlockDiagonalPass2(const CoupledStep& s, const MatrixXd& FcT, Index i0, Ind
                         const VectorXd* v, double* x, BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out) {
   const Index c = s.c(), d = s.d(), r = s.r(), k = FcT.rows();
   BlockDiagonalGain& g = out->gain;
-  const bool store_gain = g.Et.cols() > 0;
   const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
-  if (x && w->jnu.size() < chunk * c) w->jnu.resize(chunk * c);
-  if (r > 0) {
-    if (w->Wt.rows() != k || w->Wt.cols() < chunk * c) w->Wt.resize(k, chunk * c);
-    if (!store_gain) {
-      if (w->Gt.rows() != r || w->Gt.cols() < chunk * c) w->Gt.resize(r, chunk * c);
-      if (w->Et.rows() != r || w->Et.cols() < chunk * c) w->Et.resize(r, chunk * c);
-      w->hg.resize(r, d);
+  double* jnu = x ? Buffer(w->jnu, chunk * c) : nullptr;
+  double* A = r > 0 ? Buffer(w->A, chunk * c * c) : nullptr;
+  double* Wt = r > 0 ? Buffer(w->Wt, chunk * c * std::max<Index>(k, 1)) : nullptr;
+  double* T = r > 0 ? Buffer(w->T, chunk * c * c) : nullptr;
+  double* gv = x && r > 0 ? Buffer(w->gv, chunk * c) : nullptr;
+  for (Index b0 = i0; b0 < i1; b0 += chunk) {
+    const Index nb = std::min(chunk, i1 - b0);
+    if (x) {  // x_i += J_i nu_i
+      BlockRowsTimes(g.J, d, b0, nb, nu + b0 * d, nb * d, jnu, nb * c, 1);
+      Eigen::Map<VectorXd>(x + b0 * c, nb * c) += Eigen::Map<const VectorXd>(jnu, nb * c);
+    }
+    if (r == 0) continue;
+    // E_i = A_i G_i, so E_i C_1 E_i^T = A_i (G_i Fc)(G_i Fc)^T A_i^T (eq. (8) with C_2 = C_1,
+    // C_3 = -C_1): W = G_chunk Fc straight from G (one DGEMM per chunk), the Gram blocks
+    // T_i = W_i W_i^T, then P_i += A_i T_i A_i^T.
+    GainResidual(c, d, nb, g.J.data() + b0 * c * d, s.H.data() + b0 * d * c, A);
+    const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
+    {
+      const int m = static_cast<int>(nb * c), nk = static_cast<int>(k), nr = static_cast<int>(r);
+      const int ldg = static_cast<int>(Gc.outerStride()), ldf = static_cast<int>(std::max<Index>(k, 1));
+      const double one = 1.0, zero = 0.0;
+      if (k > 0) dgemm_("N", "T", &m, &nk, &nr, &one, Gc.data(), &ldg, FcT.data(), &ldf, &zero, Wt, &m);
+    }
+    GramBlocks(c, k, nb, Wt, nb * c, T);
+    CongruenceSoA(c, nb, A, T, out->P_filt.data() + b0 * c * c);
+    if (x) {  // x_i -= E_i mu_u = A_i (G_i mu_u)
+      Eigen::Map<VectorXd>(gv, nb * c).noalias() = Gc * *v;
+      BlockRowsTimesRaw(A, c, c, nb, gv, nb * c, jnu, nb * c, 1);
+      Eigen::Map<VectorXd>(x + b0 * c, nb * c) -= Eigen::Map<const VectorXd>(jnu, nb * c);
     }
   }
-  DispatchShapes(c, d, [&](auto C, auto D) {
-    for (Index b0 = i0; b0 < i1; b0 += chunk) {
-      const Index nb = std::min(chunk, i1 - b0);
-      if (x) {  // x_i += J_i nu_i
-        BlockRowsTimes(g.J, d, b0, nb, nu + b0 * d, nb * d, w->jnu.data(), nb * c, 1);
-        Eigen::Map<VectorXd>(x + b0 * c, nb * c) += w->jnu.head(nb * c);
-      }
-      if (r == 0) continue;
-      const double* et = nullptr;
-      if (store_gain) {
-        et = g.Et.data() + b0 * c * r;
-      } else {
-        TransposeRows(s.G, b0 * c, nb * c, w->Gt.data());
-        CouplingEt<decltype(C)::value, decltype(D)::value>(
-            c, d, r, nb, s.H.data() + b0 * d * c, g.J.data() + b0 * c * d, w->Gt.data(), w->hg.data(), w->Et.data());
-        et = w->Et.data();
-      }
-      const Eigen::Map<const MatrixXd> Etc(et, r, nb * c);
-      w->Wt.leftCols(nb * c).noalias() = FcT * Etc;
-      double* P = out->P_filt.data() + b0 * c * c;
-      if (c <= 4) {
-        CouplingPass2Strided(c, k, nb, w->Wt.data(), P);
-      } else {
-        CouplingPass2<Eigen::Dynamic>(c, k, nb, w->Wt.data(), P);
-      }
-      if (x) Eigen::Map<VectorXd>(x + b0 * c, nb * c).noalias() -= Etc.transpose() * *v;  // - E_i mu_u
-    }
-  });
 }
 
 }  // namespace kfx::detail

@@ -4,7 +4,8 @@
 // (src/block_diagonal.cpp); for subsystems [i0, i1) of the (local) step s:
 //   pass 1: the per-subsystem Kalman steps (J, P = L - J H L) and E^T, Y^T, and N += Z^T Z;
 //   factor: C_1 = (U^{-1} + N)^{-1} = Fc Fc^T without inverting U;
-//   pass 2: P_i += W_i W_i^T, W^T = Fc^T E^T.
+//   pass 2: P_i += W_i W_i^T, W_i = E_i Fc = A_i G_i Fc with A_i = J_i H_i - I (E is never formed:
+//   both passes read G in place).
 // A subsystem's results depend only on its own blocks, on Fc and on where its internal chunk of
 // kfx's 256 subsystems starts, so callers that start every range at the same global positions get
 // the same bits on any partition.
@@ -15,10 +16,13 @@
 namespace kfx::detail {
 
 /// Scratch buffers of the passes (resized on first use; reuse across steps avoids allocation).
+/// Chunk-sized (O(256 r) doubles), independent of n.
 struct BlockDiagonalWorkspace {
-  Eigen::MatrixXd Gt, Zt, hg, Wt, Et;
-  Eigen::VectorXd rinv, rnu, jnu;
+  Eigen::VectorXd rinv, B, Z, A, Wt, T, rnu, jnu, gv;
 };
+
+/// Whether the passes may use their fixed-shape kernels (SetBlockDiagonalSpecializedKernels).
+bool SpecializedKernels();
 
 /// Sizes out->P_filt and out->gain.J for s, and E^T, Y^T when store_gain (else they get 0 columns and
 /// pass 2 recomputes E from G). Keeps the storage when the sizes agree.
@@ -30,7 +34,8 @@ void BlockDiagonalResize(const CoupledStep& s, bool store_gain, BlockDiagonalCov
 void BlockDiagonalPass1(const CoupledStep& s, const Eigen::MatrixXd& P_prev_blocks, Eigen::Index i0, Eigen::Index i1,
                         const double* nu, BlockDiagonalWorkspace* work, BlockDiagonalCovarianceStep* out,
                         Eigen::MatrixXd* N, Eigen::VectorXd* ytnu);
-/// From the full symmetric N: C_1 into *C1 and returns Fc^T (k x r, C_1 = Fc Fc^T, k = rank of U).
+/// From the full symmetric N: C_1 into *C1 and returns Fc^T (k x r upper trapezoidal, C_1 = Fc Fc^T,
+/// k = rank of U).
 /// @throws kfx::NumericalError if I + S^T N S is not positive definite.
 Eigen::MatrixXd BlockDiagonalFactor(const Eigen::MatrixXd& U, const Eigen::MatrixXd& N, Eigen::MatrixXd* C1);
 /// Pass 2 over subsystems [i0, i1): P_i += W_i W_i^T (W^T = Fc^T E^T, E^T stored or recomputed from

@@ -85,6 +85,60 @@ INSTANTIATE_TEST_SUITE_P(Sizes, FastVsNaive,
                                            Dims{7, 4, 2, 2}, Dims{3, 1, 1, 5}, Dims{300, 1, 1, 2}, Dims{260, 2, 1, 20},
                                            Dims{6, 3, 1, 4}, Dims{5, 6, 1, 2}, Dims{2, 9, 9, 3}, Dims{270, 1, 2, 2}));
 
+// The fixed-shape kernels of the O(n r^2) step (c <= 4, d <= 2: Kalman steps, whitening, A = J H - I,
+// Gram blocks, congruence) against the generic run-time-size ones, on time-varying systems whose
+// shapes hit every dispatch branch and the fallbacks (c = 9: heap-sized blocks), across chunk
+// boundaries (n = 300 > 256) and with r = 1, n = 1.
+TEST(BlockDiagonalKernels, SpecializedEqualGeneric) {
+  const Dims shapes[] = {{37, 1, 1, 3}, {300, 2, 1, 20}, {29, 3, 1, 4}, {23, 4, 1, 2}, {19, 2, 2, 5}, {17, 1, 2, 3},
+                         {13, 3, 2, 4}, {11, 5, 1, 3},   {5, 9, 9, 2},  {1, 2, 1, 1},  {40, 2, 1, 1}, {9, 4, 3, 6}};
+  for (const Dims& dm : shapes) {
+    TestRng rng(500 + dm.n + 13 * dm.c + 7 * dm.d + dm.r);
+    std::vector<CoupledStep> steps;
+    for (int k = 0; k < 3; ++k) steps.push_back(RandomStep(rng, dm.n, dm.c, dm.d, dm.r));
+    std::vector<VectorXd> ys;
+    for (int k = 0; k < 3; ++k) ys.push_back(rng.Gaussian(dm.n * dm.d, 1));
+    const MatrixXd P0 = PackedSpd(rng, dm.c, dm.n, 0.1);
+    const VectorXd x0 = rng.Gaussian(dm.n * dm.c, 1);
+    struct Result {
+      std::vector<BlockDiagonalCovarianceStep> offline;
+      std::vector<VectorXd> x, mu;
+      std::vector<MatrixXd> P;
+    };
+    auto run = [&](bool specialized) {
+      detail::SetBlockDiagonalSpecializedKernels(specialized);
+      Result out;
+      MatrixXd P = P0;
+      CoupledFilter filter(CoupledFilterKind::kBlockDiagonal, x0, P0);
+      for (int k = 0; k < 3; ++k) {
+        out.offline.push_back(BlockDiagonalCovarianceUpdate(steps[k], P));
+        P = out.offline.back().P_filt;
+        filter.Step(steps[k], ys[k]);
+        out.x.push_back(filter.x());
+        out.mu.push_back(filter.coupling_mean());
+        out.P.push_back(filter.P());
+      }
+      detail::SetBlockDiagonalSpecializedKernels(true);
+      return out;
+    };
+    const Result fast = run(true), generic = run(false);
+    for (int k = 0; k < 3; ++k) {
+      SCOPED_TRACE("n c d r = " + std::to_string(dm.n) + " " + std::to_string(dm.c) + " " + std::to_string(dm.d) + " " +
+                   std::to_string(dm.r) + ", k = " + std::to_string(k));
+      const BlockDiagonalCovarianceStep &a = fast.offline[k], &b = generic.offline[k];
+      EXPECT_LE(RelativeDifference(a.P_filt, b.P_filt), 1e-12);
+      EXPECT_LE(RelativeDifference(a.gain.J, b.gain.J), 1e-12);
+      EXPECT_LE(RelativeDifference(a.gain.Et, b.gain.Et), 1e-12);
+      EXPECT_LE(RelativeDifference(a.gain.Yt, b.gain.Yt), 1e-12);
+      EXPECT_LE(RelativeDifference(a.gain.C1, b.gain.C1), 1e-12);
+      EXPECT_LE(RelativeDifference(fast.x[k], generic.x[k]), 1e-12);
+      EXPECT_LE(RelativeDifference(fast.mu[k], generic.mu[k]), 1e-12);
+      EXPECT_LE(RelativeDifference(fast.P[k], generic.P[k]), 1e-12);
+      EXPECT_GT(a.P_filt.norm(), 0.0);
+    }
+  }
+}
+
 // The filter class over a time-varying system gives the same estimates as the naive kind.
 TEST(CoupledFilter, FastAndNaiveKindsAgreeOverARun) {
   TestRng rng(7);

@@ -144,6 +144,13 @@ BlockDiagonalCovarianceStep BlockDiagonalCovarianceUpdate(const CoupledStep& s, 
 void BlockDiagonalCovarianceUpdate(const CoupledStep& s, const Eigen::MatrixXd& P_prev_blocks,
                                    BlockDiagonalCovarianceStep* out);
 
+namespace detail {
+/// Test hook: with false, the O(n r^2) step uses only its generic (run-time size) kernels instead of
+/// the fixed-shape ones for small c, d; both must agree to rounding. Default true; not meant to be
+/// switched while another thread runs a step.
+void SetBlockDiagonalSpecializedKernels(bool enabled);
+}  // namespace detail
+
 struct DenseGainCovarianceStep {
   Eigen::MatrixXd P_filt;  ///< as produced by the method (packed blocks or dense).
   Eigen::MatrixXd K;       ///< (n c) x (n d) dense gain.
