@@ -9,6 +9,8 @@
 //   kfx_peers lyap DIR N REPS            SolveDiscreteLyapunov vs SB03MD on DIR/lyap_N_{A,Q}.npy
 //   kfx_peers kf DIR N REPS COV_STEPS TOL  RunFilter (1000 steps) on DIR/kf_N_*.npy, and the
 //                                        covariance recursion alone for COV_STEPS steps
+#include <malloc.h>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cstdio>
@@ -194,6 +196,12 @@ int Lyap(const std::string& dir, int n, int reps) {
 }
 
 int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
+  // From here to the memory run (loading included), glibc's thresholds are fixed at 128 KiB (no
+  // dynamic mmap threshold): every block over 128 KiB is mapped on allocation and unmapped on
+  // free, so the resident set follows the live allocations and a run's growth is not hidden by
+  // freed memory that glibc would keep and reuse.
+  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 128 * 1024);
   const std::string p = "kf_" + std::to_string(n) + "_";
   // Loaded straight into the model (no second copy of A, Q, P0 in this process).
   const kfx::Model model(kfx::MakeStep(Load(dir, p + "A"), Load(dir, p + "C"), Load(dir, p + "Q"), Load(dir, p + "R")),
@@ -221,6 +229,10 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
       1048576.0;
   const double covariance_mb = 8.0 * static_cast<double>(n) * static_cast<double>(n) / 1048576.0;
   run = kfx::FilterRun();
+  // For the timings, glibc's usual steady state: the largest dynamic mmap threshold (32 MiB), so
+  // freed blocks are reused from the heap as they would be after a few steps.
+  mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 64 * 1024 * 1024);
   for (int i = 0; i < reps; ++i) {
     run = kfx::FilterRun();
     const double t0 = CpuSeconds();
