@@ -2,13 +2,15 @@
 // Compiled without -mavx2: every function here carries the target attribute and uses only
 // intrinsics and plain loops (no Eigen, no inline functions from headers compiled for the baseline).
 //
-// Design: the subsystems are taken in blocks of up to kBlock (a multiple of 4). For a block, Z
-// (block x r) is formed column by column into scratch, four subsystems per vector (two G loads, two
-// products against b, one horizontal add, one lane permutation), Y^T nu accumulated on the way. The
-// lower triangle of Z^T Z is then a dot-product SYRK vectorized over subsystems: a register tile of
-// up to 4 rows x 3 columns of N (12 accumulators, 7 loads per 12 FMAs), reduced horizontally into N
-// once per tile and block. Between tiles, the G columns of the next block are prefetched, so that
-// streaming G (memory or L3) overlaps the FMAs. The last nb mod 4 subsystems go through scalar loops.
+// Design: the subsystems are taken in blocks of up to kBlock = 256 (a multiple of 4; the filter's
+// chunk is one block). For a block, Z (block x r) is formed column by column into scratch, four
+// subsystems per vector (two G loads, two in-lane unpacks, a multiply and an FMA against the even
+// and odd entries of b, which are split once per block), Y^T nu accumulated on the way. Within each
+// group of four, Z holds the subsystems in the lane order (l, l + 2, l + 1, l + 3), which Z^T Z does
+// not see (rnu is permuted to match). The lower triangle of Z^T Z is a dot-product SYRK vectorized
+// over subsystems: a register tile of up to 4 rows x 3 columns of N (12 accumulators, 7 loads per
+// 12 FMAs), reduced horizontally into N once per tile and block. The last nb mod 4 subsystems go
+// through scalar loops.
 #include <immintrin.h>
 
 #include <cstdint>
@@ -24,30 +26,13 @@ namespace {
 
 using Eigen::Index;
 
-#ifndef KFX_P1_BLOCK
-#define KFX_P1_BLOCK 64
-#endif
-constexpr Index kBlock = KFX_P1_BLOCK;  // subsystems per block: Z block of kBlock r doubles stays in L1
+constexpr Index kBlock = 256;  // subsystems per block (the filter's chunk): b and rnu of a block on the stack
 
 // Sum of the four lanes.
 KFX_AVX2_INLINE double HorizontalSum(__m256d v) {
   const __m128d s = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
   return _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)));
 }
-
-// Prefetches the G rows of the next block, one column per call.
-struct GPrefetch {
-  const double* g;    // first row of the next block in column 0
-  Index ldg, r, len;  // len: doubles per column (2 subsystems' rows each), 0 when no next block
-  Index t;
-  KFX_AVX2_INLINE void Column() {
-    if (t >= r || len == 0) return;
-    const double* gt = g + t * ldg;
-    for (Index k = 0; k < len; k += 8) _mm_prefetch(reinterpret_cast<const char*>(gt + k), _MM_HINT_T0);
-    _mm_prefetch(reinterpret_cast<const char*>(gt + len - 1), _MM_HINT_T0);
-    ++t;
-  }
-};
 
 // N(i0 + a, j0 + q) += sum_{l < m} Z(l, i0 + a) Z(l, j0 + q) for a < MR, q < NR and
 // i0 + a >= j0 + q (Z column-major, leading dimension m, m a multiple of 4, 32-byte aligned).
@@ -103,12 +88,9 @@ KFX_AVX2 void SyrkTile(Index m, const double* z, Index i0, Index j0, double* N, 
 
 // Columns j0 .. j0 + NR - 1 of the lower triangle, rows j0 .. r - 1.
 template <int NR>
-KFX_AVX2 void SyrkColumnBlock(Index m, const double* z, Index r, Index j0, double* N, GPrefetch* pf) {
+KFX_AVX2 void SyrkColumnBlock(Index m, const double* z, Index r, Index j0, double* N) {
   Index i0 = j0;
-  for (; i0 + 4 <= r; i0 += 4) {
-    pf->Column();
-    SyrkTile<4, NR>(m, z, i0, j0, N, r);
-  }
+  for (; i0 + 4 <= r; i0 += 4) SyrkTile<4, NR>(m, z, i0, j0, N, r);
   switch (r - i0) {
     case 3:
       SyrkTile<3, NR>(m, z, i0, j0, N, r);
@@ -124,22 +106,42 @@ KFX_AVX2 void SyrkColumnBlock(Index m, const double* z, Index r, Index j0, doubl
   }
 }
 
-// Z (m x r, leading dimension m) of the m subsystems at b, g (m a multiple of 4); ytnu += Z^T rnu.
+// Z (m x r, leading dimension m) of the m subsystems at b, g (m <= kBlock, a multiple of 4), in
+// the lane order (l, l + 2, l + 1, l + 3) within each group of four (Z^T Z does not depend on the
+// order of the subsystems); ytnu += Z^T rnu with rnu in the same order.
 KFX_AVX2 void FormZ(Index m, Index r, const double* b, const double* g, Index ldg, const double* rnu, double* z,
                     double* ytnu) {
+  // The even and odd entries of b (first and second state of each subsystem) and rnu, in lane order.
+  alignas(32) double be[kBlock], bo[kBlock], rp[kBlock];
+  for (Index l = 0; l < m; l += 4) {
+    const __m256d b0 = _mm256_loadu_pd(b + 2 * l), b1 = _mm256_loadu_pd(b + 2 * l + 4);
+    _mm256_store_pd(be + l, _mm256_unpacklo_pd(b0, b1));
+    _mm256_store_pd(bo + l, _mm256_unpackhi_pd(b0, b1));
+    if (rnu) _mm256_store_pd(rp + l, _mm256_permute4x64_pd(_mm256_loadu_pd(rnu + l), 0xD8));
+  }
   for (Index t = 0; t < r; ++t) {
     const double* gt = g + t * ldg;
+    const char* next = reinterpret_cast<const char*>(t + 1 < r ? gt + ldg : gt);  // prefetched along
     double* zt = z + t * m;
-    __m256d acc = _mm256_setzero_pd();
-    for (Index l = 0; l < m; l += 4) {
-      const __m256d p0 = _mm256_mul_pd(_mm256_loadu_pd(gt + 2 * l), _mm256_loadu_pd(b + 2 * l));
-      const __m256d p1 = _mm256_mul_pd(_mm256_loadu_pd(gt + 2 * l + 4), _mm256_loadu_pd(b + 2 * l + 4));
-      // hadd gives (z_l, z_{l+2}, z_{l+1}, z_{l+3}); put the lanes in subsystem order.
-      const __m256d zl = _mm256_permute4x64_pd(_mm256_hadd_pd(p0, p1), 0xD8);
-      _mm256_store_pd(zt + l, zl);
-      if (rnu) acc = _mm256_fmadd_pd(_mm256_loadu_pd(rnu + l), zl, acc);
+    if (rnu) {
+      __m256d acc = _mm256_setzero_pd();
+      for (Index l = 0; l < m; l += 4) {
+        _mm_prefetch(next + 16 * l, _MM_HINT_T0);
+        const __m256d g0 = _mm256_loadu_pd(gt + 2 * l), g1 = _mm256_loadu_pd(gt + 2 * l + 4);
+        const __m256d zl = _mm256_fmadd_pd(_mm256_unpackhi_pd(g0, g1), _mm256_load_pd(bo + l),
+                                           _mm256_mul_pd(_mm256_unpacklo_pd(g0, g1), _mm256_load_pd(be + l)));
+        _mm256_store_pd(zt + l, zl);
+        acc = _mm256_fmadd_pd(_mm256_load_pd(rp + l), zl, acc);
+      }
+      ytnu[t] += HorizontalSum(acc);
+    } else {
+      for (Index l = 0; l < m; l += 4) {
+        _mm_prefetch(next + 16 * l, _MM_HINT_T0);
+        const __m256d g0 = _mm256_loadu_pd(gt + 2 * l), g1 = _mm256_loadu_pd(gt + 2 * l + 4);
+        _mm256_store_pd(zt + l, _mm256_fmadd_pd(_mm256_unpackhi_pd(g0, g1), _mm256_load_pd(bo + l),
+                                                _mm256_mul_pd(_mm256_unpacklo_pd(g0, g1), _mm256_load_pd(be + l))));
+      }
     }
-    if (rnu) ytnu[t] += HorizontalSum(acc);
   }
 }
 
@@ -155,13 +157,10 @@ KFX_AVX2 void Pass1C2D1Avx2(Index nb, Index r, const double* b, const double* g,
   for (Index l0 = 0; l0 < m; l0 += blk) {
     const Index mb = m - l0 < blk ? m - l0 : blk;
     FormZ(mb, r, b + 2 * l0, g + 2 * l0, ldg, rnu ? rnu + l0 : nullptr, z, ytnu);
-    const Index next = l0 + mb;
-    GPrefetch pf{g + 2 * next, ldg, r, 2 * (m - next < blk ? m - next : blk), 0};
     Index j0 = 0;
-    for (; j0 + 3 <= r; j0 += 3) SyrkColumnBlock<3>(mb, z, r, j0, N, &pf);
-    if (r - j0 == 2) SyrkColumnBlock<2>(mb, z, r, j0, N, &pf);
-    if (r - j0 == 1) SyrkColumnBlock<1>(mb, z, r, j0, N, &pf);
-    while (pf.t < r && pf.len > 0) pf.Column();
+    for (; j0 + 3 <= r; j0 += 3) SyrkColumnBlock<3>(mb, z, r, j0, N);
+    if (r - j0 == 2) SyrkColumnBlock<2>(mb, z, r, j0, N);
+    if (r - j0 == 1) SyrkColumnBlock<1>(mb, z, r, j0, N);
   }
   // The last nb mod 4 subsystems: one z row at a time (r doubles of scratch after the Z block;
   // blk r + r <= nb r since blk <= m < nb here).
