@@ -42,10 +42,11 @@ kfx::CoupledStep MakeSystem(Index n, std::mt19937_64& gen) {
 
 double BlockFlops(double n) {
   const double c = kC, d = kD, r = kR;
-  // HG twice 4ncdr, Y 2nd^2r, N 2ndr^2, B 2ncdr, W 2ncr^2, P += W W^T 2nc^2r, gain apply 2n(c+d)r,
-  // the per-block kernel about 4c^3 + 6c^2d + 4cd^2 + d^3.
-  return n * (6 * c * d * r + 2 * d * d * r + 2 * d * r * r + 2 * c * r * r + 2 * c * c * r + 2 * (c + d) * r +
-              4 * c * c * c + 6 * c * c * d + 4 * c * d * d + d * d * d);
+  // Pass 1: Z = R_c^{-T} H G 2ncdr, N += Z^T Z (lower triangle) n d r(r+1), Y^T nu 2ndr; pass 2:
+  // W = G Fc with Fc triangular n c r(r+1), Gram blocks n c(c+1) r, G mu_u 2ncr; the per-block
+  // kernels about 4c^3 + 6c^2d + 4cd^2 + d^3 and the prediction 2nc(c+d).
+  return n * (2 * c * d * r + d * r * (r + 1) + 2 * d * r + c * r * (r + 1) + c * (c + 1) * r + 2 * c * r +
+              4 * c * c * c + 6 * c * c * d + 4 * c * d * d + d * d * d + 2 * c * (c + d));
 }
 double BandedFlops(double n) {
   const double c = kC, d = kD;

@@ -12,6 +12,7 @@
 #include "kfx/validation.hpp"
 
 #include "block_diagonal_internal.hpp"  // the range-based passes defined at the end of this file
+#include "block_diagonal_simd.hpp"
 
 namespace kfx {
 
@@ -613,6 +614,7 @@ struct EstimateFold {
   const double* nu;
   double* x;
   VectorXd* mu_u;
+  const detail::PredictFold* predict;  // when given, pass 1 forms x = F x_prev and nu first
 };
 
 // Eqs. (8)-(17) over all subsystems, through the range passes below (the distributed filter runs the
@@ -628,11 +630,12 @@ void BlockDiagonalUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonal
   detail::BlockDiagonalResize(s, store_gain, &out);
   MatrixXd N = MatrixXd::Zero(r, r);
   VectorXd ytnu = VectorXd::Zero(est ? r : 0);
-  detail::BlockDiagonalPass1(s, Pp, 0, n, est ? est->nu : nullptr, &ws, &out, &N, est ? &ytnu : nullptr);
+  detail::BlockDiagonalPass1(s, Pp, 0, n, est ? est->nu : nullptr, &ws, &out, &N, est ? &ytnu : nullptr,
+                             est ? est->predict : nullptr);
   N.triangularView<Eigen::StrictlyUpper>() = N.transpose();
-  MatrixXd FcT(0, r);
+  detail::CouplingFactor factor;
   if (r > 0)
-    FcT = detail::BlockDiagonalFactor(s.U, N, &out.gain.C1);
+    factor = detail::BlockDiagonalFactor(s.U, N, &out.gain.C1);
   else
     out.gain.C1.resize(0, 0);
   VectorXd v;
@@ -640,7 +643,7 @@ void BlockDiagonalUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonal
     v.noalias() = out.gain.C1 * ytnu;  // mu_u = C_1 Y^T nu (after eq. (17), -C_3 = C_1)
     *est->mu_u = v;
   }
-  detail::BlockDiagonalPass2(s, FcT, 0, n, est ? est->nu : nullptr, est ? &v : nullptr, est ? est->x : nullptr, &ws,
+  detail::BlockDiagonalPass2(s, factor, 0, n, est ? est->nu : nullptr, est ? &v : nullptr, est ? est->x : nullptr, &ws,
                              &out);
 }
 
@@ -789,6 +792,20 @@ void CoupledFilter::Step(const CoupledStep& s, const VectorXd& y) {
   RequireVector("y", y, s.n() * s.d());
   RequireFinite("y", y);
   CheckStep(s);
+  if (kind_ == CoupledFilterKind::kBlockDiagonal) {
+    // The prediction and the innovation are formed inside pass 1, chunk by chunk, while F and H are
+    // in cache: at large n the step streams its arrays from memory once less.
+    RequirePackedCovariance("P", P_, s.c(), s.n());
+    x_next_.resize(x_.size());
+    nu_.resize(y.size());
+    const detail::PredictFold predict{x_.data(), y.data(), x_next_.data(), nu_.data()};
+    const EstimateFold fold{nu_.data(), x_next_.data(), &mu_u_, &predict};
+    BlockDiagonalUpdate(s, P_, work_, /*store_gain=*/false, &fold);
+    sigma_u_ = work_.gain.C1;
+    P_.swap(work_.P_filt);
+    x_.swap(x_next_);
+    return;
+  }
   VectorXd x_pred = CoupledPropagate(s, x_);
   const VectorXd nu = y - BlockDiagonalApply(s.H, s.c(), x_pred);
   Update(s, nu, std::move(x_pred));
@@ -815,7 +832,7 @@ void CoupledFilter::Update(const CoupledStep& s, const VectorXd& nu, VectorXd x)
       // mu_u; work_'s buffers are reused from step to step). The gain is not stored: the passes never
       // read it (they apply E = A G from G in place), so writing E^T, Y^T would only cost bandwidth.
       RequirePackedCovariance("P", P_, s.c(), s.n());
-      const EstimateFold fold{nu.data(), x.data(), &mu_u_};
+      const EstimateFold fold{nu.data(), x.data(), &mu_u_, nullptr};
       BlockDiagonalUpdate(s, P_, work_, /*store_gain=*/false, &fold);
       sigma_u_ = work_.gain.C1;
       P_.swap(work_.P_filt);
@@ -983,10 +1000,22 @@ ConstStrided GRows(const MatrixXd& G, Index row0, Index rows) {
 }  // namespace
 
 void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Index i1, const double* nu,
-                        BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out, MatrixXd* N, VectorXd* ytnu) {
+                        BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out, MatrixXd* N, VectorXd* ytnu,
+                        const PredictFold* predict) {
   const Index c = s.c(), d = s.d(), r = s.r();
+  KFX_ASSERT(predict == nullptr || nu == predict->nu);
   BlockDiagonalGain& g = out->gain;
+  // x_pred = F x_prev, nu = y - H x_pred for subsystems [b0, b0 + nb).
+  auto predict_chunk = [&](Index b0, Index nb) {
+    if (!predict) return;
+    double* xp = predict->x_pred + b0 * c;
+    BlockRowsTimes(s.F, c, b0, nb, predict->x_prev + b0 * c, nb * c, xp, nb * c, 1);
+    double* e = predict->nu + b0 * d;
+    BlockRowsTimes(s.H, c, b0, nb, xp, nb * c, e, nb * d, 1);
+    for (Index j = 0; j < nb * d; ++j) e[j] = predict->y[b0 * d + j] - e[j];
+  };
   if (r == 0) {
+    for (Index b0 = i0; b0 < i1; b0 += kChunk) predict_chunk(b0, std::min(kChunk, i1 - b0));
     SubsystemKalmanSteps(s, Pp, s.V, i0, i1, nullptr, g.J, out->P_filt);
     return;
   }
@@ -996,12 +1025,23 @@ void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Inde
   double* B = Buffer(w->B, chunk * d * c);
   double* Z = Buffer(w->Z, chunk * d * r);
   double* rnu = nu ? Buffer(w->rnu, chunk * d) : nullptr;
+  // The AVX2 kernel fuses Z, Z^T Z and Y^T nu for c = 2, d = 1 (Z itself is not kept).
+  const bool simd = c == 2 && d == 1 && !store_gain && SimdKernelsEnabled();
+  if (simd) Z = Buffer(w->Z, chunk * r + 64);
   for (Index b0 = i0; b0 < i1; b0 += chunk) {
     const Index nb = std::min(chunk, i1 - b0);
+    predict_chunk(b0, nb);
     SubsystemKalmanSteps(s, Pp, s.V, b0, b0 + nb, rinv, g.J, out->P_filt);
     // Z = blockdiag(R_c^{-T} H_i) G_chunk ((nb d) x r), read from G in place, one column sweep.
     WhitenedMeasurement(c, d, nb, s.H.data() + b0 * d * c, rinv, B);
     const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
+    if (simd) {
+      if (nu)
+        for (Index l = 0; l < nb; ++l) rnu[l] = rinv[l] * nu[b0 + l];
+      Pass1C2D1Avx2(nb, r, B, Gc.data(), Gc.outerStride(), nu ? rnu : nullptr, N->data(), ytnu ? ytnu->data() : nullptr,
+                    Z);
+      continue;
+    }
     BlockRowsTimesRaw(B, d, c, nb, Gc.data(), Gc.outerStride(), Z, nb * d, r);
     const Eigen::Map<const MatrixXd> Zc(Z, nb * d, r);
     N->selfadjointView<Eigen::Lower>().rankUpdate(Zc.transpose());  // one DSYRK per chunk
@@ -1029,51 +1069,114 @@ void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Inde
   }
 }
 
-MatrixXd BlockDiagonalFactor(const MatrixXd& U, const MatrixXd& N, MatrixXd* C1) {
+CouplingFactor BlockDiagonalFactor(const MatrixXd& U, const MatrixXd& N, MatrixXd* C1) {
   // C_1 = (U^{-1} + N)^{-1} (eq. (11)) without inverting U (U may be singular, even 0):
-  // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = Fc Fc^T, Fc = S L^{-T}, (I + S^T N S) = L L^T.
-  const MatrixXd S = PsdFactor(U);
-  MatrixXd T = MatrixXd::Identity(S.cols(), S.cols());
-  T.noalias() += S.transpose() * N * S;
-  Eigen::LLT<MatrixXd> tl(T);
+  // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = F F^T, F = S L^{-T}, (I + S^T N S) = L L^T.
+  // U's factor is kept from the last call on this thread (U is usually the same every step).
+  thread_local MatrixXd U_last, S;
+  if (U_last.rows() != U.rows() || U_last != U) {
+    S = PsdFactor(U);
+    U_last = U;
+  }
+  const Index k = S.cols();
+  MatrixXd T = MatrixXd::Identity(k, k);
+  const MatrixXd NS = N * S;
+  T.noalias() += S.transpose() * NS;
+  const Eigen::LLT<MatrixXd> tl(T);
   if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
-  MatrixXd FcT = tl.matrixL().solve(S.transpose());  // k x r: Fc^T
-  C1->noalias() = FcT.transpose() * FcT;
-  return FcT;
+  const MatrixXd FT = tl.matrixL().solve(S.transpose());  // k x r: F^T
+  C1->noalias() = FT.transpose() * FT;
+  // Pass 2 needs any factor of C_1; a lower trapezoidal one, C_1 = Ld Ld^T, makes W = G Ld cost half
+  // the flops of G F: the Cholesky factor of C_1 or, when C_1 is singular (U is), the LQ factor of F
+  // (F = Ld Q, from the QR of F^T).
+  CouplingFactor f;
+  const Eigen::LLT<MatrixXd> chol(*C1);
+  if (chol.info() == Eigen::Success) {
+    f.Ld = chol.matrixL();
+  } else {
+    const Eigen::HouseholderQR<MatrixXd> qr(FT);
+    f.Ld = MatrixXd(qr.matrixQR().topRows(std::min(k, U.rows())).triangularView<Eigen::Upper>()).transpose();
+  }
+  f.FcT = f.Ld.transpose();
+  return f;
 }
 
-void BlockDiagonalPass2(const CoupledStep& s, const MatrixXd& FcT, Index i0, Index i1, const double* nu,
+namespace {
+// The rest of pass 2 for c = 2, d = 1, fused per subsystem: A = J H - I, P_i += A T_i A^T (T_i from
+// the Gram sums sq, cross) and, when x is given, x_i += J nu_i - A (G_i mu_u).
+void FinishC2D1(Index nb, const double* J, const double* H, const double* sq, const double* cross, const double* nu,
+                const double* gv, double* P, double* x) {
+  for (Index l = 0; l < nb; ++l) {
+    const double j0 = J[2 * l], j1 = J[2 * l + 1], h0 = H[2 * l], h1 = H[2 * l + 1];
+    const double a00 = j0 * h0 - 1.0, a01 = j0 * h1, a10 = j1 * h0, a11 = j1 * h1 - 1.0;
+    const double t00 = sq[2 * l], t11 = sq[2 * l + 1], t10 = cross[2 * l];
+    // rows of A T
+    const double b00 = a00 * t00 + a01 * t10, b01 = a00 * t10 + a01 * t11;
+    const double b10 = a10 * t00 + a11 * t10, b11 = a10 * t10 + a11 * t11;
+    double* p = P + 4 * l;
+    p[0] += b00 * a00 + b01 * a01;
+    const double off = b10 * a00 + b11 * a01;
+    p[1] += off;
+    p[2] = p[1];
+    p[3] += b10 * a10 + b11 * a11;
+    if (x) {
+      const double e = nu[l], g0 = gv[2 * l], g1 = gv[2 * l + 1];
+      x[2 * l] += j0 * e - (a00 * g0 + a01 * g1);
+      x[2 * l + 1] += j1 * e - (a10 * g0 + a11 * g1);
+    }
+  }
+}
+}  // namespace
+
+void BlockDiagonalPass2(const CoupledStep& s, const CouplingFactor& factor, Index i0, Index i1, const double* nu,
                         const VectorXd* v, double* x, BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out) {
-  const Index c = s.c(), d = s.d(), r = s.r(), k = FcT.rows();
+  const Index c = s.c(), d = s.d(), r = s.r(), k = factor.FcT.rows();
   BlockDiagonalGain& g = out->gain;
   const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
+  // The AVX2 kernel fuses W = G Fc (triangular Fc), its Gram blocks and G mu_u for c = 2.
+  const bool simd = c == 2 && r > 0 && SimdKernelsEnabled();
   double* jnu = x ? Buffer(w->jnu, chunk * c) : nullptr;
   double* A = r > 0 ? Buffer(w->A, chunk * c * c) : nullptr;
-  double* Wt = r > 0 ? Buffer(w->Wt, chunk * c * std::max<Index>(k, 1)) : nullptr;
+  double* Wt = r > 0 && !simd ? Buffer(w->Wt, chunk * c * std::max<Index>(k, 1)) : nullptr;
   double* T = r > 0 ? Buffer(w->T, chunk * c * c) : nullptr;
   double* gv = x && r > 0 ? Buffer(w->gv, chunk * c) : nullptr;
   for (Index b0 = i0; b0 < i1; b0 += chunk) {
     const Index nb = std::min(chunk, i1 - b0);
+    if (simd && d == 1) {
+      const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
+      Pass2C2Avx2(nb, r, factor.Ld.cols(), Gc.data(), Gc.outerStride(), factor.Ld.data(), x ? v->data() : nullptr, T,
+                  T + nb * c, gv);
+      FinishC2D1(nb, g.J.data() + b0 * c, s.H.data() + b0 * c, T, T + nb * c, x ? nu + b0 : nullptr, gv,
+                 out->P_filt.data() + b0 * c * c, x ? x + b0 * c : nullptr);
+      continue;
+    }
     if (x) {  // x_i += J_i nu_i
       BlockRowsTimes(g.J, d, b0, nb, nu + b0 * d, nb * d, jnu, nb * c, 1);
       Eigen::Map<VectorXd>(x + b0 * c, nb * c) += Eigen::Map<const VectorXd>(jnu, nb * c);
     }
     if (r == 0) continue;
     // E_i = A_i G_i, so E_i C_1 E_i^T = A_i (G_i Fc)(G_i Fc)^T A_i^T (eq. (8) with C_2 = C_1,
-    // C_3 = -C_1): W = G_chunk Fc straight from G (one DGEMM per chunk), the Gram blocks
-    // T_i = W_i W_i^T, then P_i += A_i T_i A_i^T.
+    // C_3 = -C_1): W = G_chunk Fc straight from G, the Gram blocks T_i = W_i W_i^T, then
+    // P_i += A_i T_i A_i^T.
     GainResidual(c, d, nb, g.J.data() + b0 * c * d, s.H.data() + b0 * d * c, A);
     const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
-    {
+    if (simd) {  // T in GramBlocks' layout: T_i(0, 0), T_i(1, 1) at T[2 i + b], T_i(1, 0) at T[nb c + 2 i]
+      Pass2C2Avx2(nb, r, factor.Ld.cols(), Gc.data(), Gc.outerStride(), factor.Ld.data(), x ? v->data() : nullptr, T,
+                  T + nb * c, gv);
+    } else {
       const int m = static_cast<int>(nb * c), nk = static_cast<int>(k), nr = static_cast<int>(r);
       const int ldg = static_cast<int>(Gc.outerStride()), ldf = static_cast<int>(std::max<Index>(k, 1));
       const double one = 1.0, zero = 0.0;
-      if (k > 0) dgemm_("N", "T", &m, &nk, &nr, &one, Gc.data(), &ldg, FcT.data(), &ldf, &zero, Wt, &m);
+      if (k > 0) {
+        dgemm_("N", "T", &m, &nk, &nr, &one, Gc.data(), &ldg, factor.FcT.data(), &ldf, &zero, Wt, &m);
+        GramBlocks(c, k, nb, Wt, nb * c, T);
+      } else {
+        std::fill(T, T + nb * c * c, 0.0);
+      }
+      if (x) Eigen::Map<VectorXd>(gv, nb * c).noalias() = Gc * *v;
     }
-    GramBlocks(c, k, nb, Wt, nb * c, T);
     CongruenceSoA(c, nb, A, T, out->P_filt.data() + b0 * c * c);
     if (x) {  // x_i -= E_i mu_u = A_i (G_i mu_u)
-      Eigen::Map<VectorXd>(gv, nb * c).noalias() = Gc * *v;
       BlockRowsTimesRaw(A, c, c, nb, gv, nb * c, jnu, nb * c, 1);
       Eigen::Map<VectorXd>(x + b0 * c, nb * c) -= Eigen::Map<const VectorXd>(jnu, nb * c);
     }

@@ -31,16 +31,30 @@ void BlockDiagonalResize(const CoupledStep& s, bool store_gain, BlockDiagonalCov
 /// range to the lower triangle of N (r x r) and, when nu (the innovation, length n d) is given,
 /// Y^T nu of the range to *ytnu. For r = 0 only the per-subsystem Kalman steps. Shapes must have been
 /// checked by the caller.
+/// When predict is given, pass 1 first forms, chunk by chunk (while F and H are in cache), the
+/// prediction x_pred = F x_prev and the innovation nu = y - H x_pred of the range into the caller's
+/// arrays (global indexing, like nu), and then uses that innovation: nu must be predict->nu.
+struct PredictFold {
+  const double* x_prev;
+  const double* y;
+  double* x_pred;
+  double* nu;
+};
 void BlockDiagonalPass1(const CoupledStep& s, const Eigen::MatrixXd& P_prev_blocks, Eigen::Index i0, Eigen::Index i1,
                         const double* nu, BlockDiagonalWorkspace* work, BlockDiagonalCovarianceStep* out,
-                        Eigen::MatrixXd* N, Eigen::VectorXd* ytnu);
-/// From the full symmetric N: C_1 into *C1 and returns Fc^T (k x r upper trapezoidal, C_1 = Fc Fc^T,
-/// k = rank of U).
+                        Eigen::MatrixXd* N, Eigen::VectorXd* ytnu, const PredictFold* predict = nullptr);
+/// C_1 = Fc Fc^T with Fc = Ld (r x k, k <= r) lower trapezoidal (Ld(t, q) = 0 for t < q), so
+/// that pass 2's W = G Fc costs half a dense product.
+struct CouplingFactor {
+  Eigen::MatrixXd FcT;  ///< k x r: Fc^T (upper trapezoidal)
+  Eigen::MatrixXd Ld;   ///< r x k: Fc
+};
+/// From the full symmetric N: C_1 = (U^{-1} + N)^{-1} into *C1 (without inverting U) and its factor.
 /// @throws kfx::NumericalError if I + S^T N S is not positive definite.
-Eigen::MatrixXd BlockDiagonalFactor(const Eigen::MatrixXd& U, const Eigen::MatrixXd& N, Eigen::MatrixXd* C1);
+CouplingFactor BlockDiagonalFactor(const Eigen::MatrixXd& U, const Eigen::MatrixXd& N, Eigen::MatrixXd* C1);
 /// Pass 2 over subsystems [i0, i1): P_i += W_i W_i^T (W^T = Fc^T E^T, E^T stored or recomputed from
 /// G, H, J) and, when x is given (F x_prev on entry), x_i += J_i nu_i - E_i v with v = mu_u = C_1 Y^T nu.
-void BlockDiagonalPass2(const CoupledStep& s, const Eigen::MatrixXd& FcT, Eigen::Index i0, Eigen::Index i1,
+void BlockDiagonalPass2(const CoupledStep& s, const CouplingFactor& factor, Eigen::Index i0, Eigen::Index i1,
                         const double* nu, const Eigen::VectorXd* v, double* x, BlockDiagonalWorkspace* work,
                         BlockDiagonalCovarianceStep* out);
 

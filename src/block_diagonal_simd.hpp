@@ -22,11 +22,10 @@ void Pass1C2D1Avx2(Eigen::Index nb, Eigen::Index r, const double* b, const doubl
                    const double* rnu, double* N, double* ytnu, double* scratch);
 
 /// Pass 2 for c = 2 over the 2 nb rows of g (column-major, r columns, leading dimension ldg): with
-/// w_j = sum_t g(j, perm[t]) Ld(t, :) (1 x k; Ld is r x k column-major, lower trapezoidal: Ld(t, q)
-/// is 0 and never read for t < q), i.e. W = G Fc with Fc(perm[t], :) = Ld(t, :), writes
-/// sq[j] = w_j w_j^T and cross[j] = w_j w_{j xor 1}^T (the other row of the same subsystem), and,
-/// when v is not null, gv[j] = sum_t g(j, t) v[t].
-void Pass2C2Avx2(Eigen::Index nb, Eigen::Index r, Eigen::Index k, const double* g, Eigen::Index ldg, const int* perm,
-                 const double* Ld, const double* v, double* sq, double* cross, double* gv);
+/// w_j = g(j, :) Ld (1 x k; Ld is r x k column-major, lower trapezoidal: Ld(t, q) is 0 and never read
+/// for t < q), writes sq[j] = w_j w_j^T and cross[j] = w_j w_{j xor 1}^T (the other row of the same
+/// subsystem), and, when v is not null, gv[j] = g(j, :) v.
+void Pass2C2Avx2(Eigen::Index nb, Eigen::Index r, Eigen::Index k, const double* g, Eigen::Index ldg, const double* Ld,
+                 const double* v, double* sq, double* cross, double* gv);
 
 }  // namespace kfx::detail

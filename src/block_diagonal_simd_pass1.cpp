@@ -11,11 +11,14 @@
 // over subsystems: a register tile of up to 4 rows x 3 columns of N (12 accumulators, 7 loads per
 // 12 FMAs), reduced horizontally into N once per tile and block. The last nb mod 4 subsystems go
 // through scalar loops.
-#include <immintrin.h>
+#include "block_diagonal_simd.hpp"
 
 #include <cstdint>
 
-#include "block_diagonal_simd.hpp"
+#include "kfx/error.hpp"
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
 
 #define KFX_AVX2 __attribute__((target("avx2,fma")))
 #define KFX_AVX2_INLINE __attribute__((target("avx2,fma"), always_inline)) inline
@@ -177,3 +180,14 @@ KFX_AVX2 void Pass1C2D1Avx2(Index nb, Index r, const double* b, const double* g,
 }
 
 }  // namespace kfx::detail
+
+#else
+
+namespace kfx::detail {
+void Pass1C2D1Avx2(Eigen::Index, Eigen::Index, const double*, const double*, Eigen::Index, const double*, double*,
+                   double*, double*) {
+  throw Error("Pass1C2D1Avx2: called on a CPU without AVX2 (SimdKernelsEnabled() is false)");
+}
+}  // namespace kfx::detail
+
+#endif

@@ -236,14 +236,15 @@ void CoupledFilterSlice::Finish() {
   VectorXd ytnu(r);
   for (Index t = 0; t < r; ++t) ytnu(t) = CompensatedValue(partial_.data() + 2 * (PackedSize(r) + t));
   MatrixXd C1(r, r);
-  MatrixXd FcT(0, r);
-  if (r > 0) FcT = detail::BlockDiagonalFactor(w.U, N, &C1);
+  detail::CouplingFactor factor;
+  if (r > 0) factor = detail::BlockDiagonalFactor(w.U, N, &C1);
   const VectorXd v = C1 * ytnu;  // mu_u
   if (n > 0) {
     if (step_ == nullptr) throw Error("Finish: the step passed to Begin is gone");
     x_ = xp_;  // pass 2 adds J nu - E mu_u granule by granule
     for (Index b0 = 0; b0 < n; b0 += granule_) {
-      detail::BlockDiagonalPass2(*step_, FcT, b0, std::min(n, b0 + granule_), nu_.data(), &v, x_.data(), &w.ws, &w.st);
+      detail::BlockDiagonalPass2(*step_, factor, b0, std::min(n, b0 + granule_), nu_.data(), &v, x_.data(), &w.ws,
+                                 &w.st);
     }
     P_.swap(w.st.P_filt);
   }

@@ -3,6 +3,7 @@
 // non-null rnu, accumulation into non-zero N and ytnu, the strict upper triangle of N untouched,
 // nothing read beyond the stated extents (NaN there) or written beyond the scratch size.
 #include "../src/block_diagonal_simd.hpp"
+#include "../src/block_diagonal_internal.hpp"
 
 #include <gtest/gtest.h>
 
@@ -122,6 +123,114 @@ TEST(BlockDiagonalSimdTest, Pass1LargeChunkAndWideCoupling) {
   CheckPass1(1001, 20, 40, true, 101);  // beyond the filter's chunk of 256
   CheckPass1(256, 64, 2, true, 102);
   CheckPass1(9, 70, 1, true, 103);
+}
+
+// One Pass2C2Avx2 call against loops: w_j = g(j, :) Ld, sq_j = |w_j|^2, cross_j = w_j . w_{j xor 1},
+// gv_j = g(j, :) v. Ld's strict upper triangle and G's rows beyond 2 nb are NaN (must not be read);
+// the outputs beyond 2 nb hold a sentinel (must not be written).
+void CheckPass2(Index nb, Index r, Index k, Index extra_rows, bool with_v, std::uint64_t seed) {
+  SCOPED_TRACE(::testing::Message() << "nb = " << nb << ", r = " << r << ", k = " << k << ", ldg = 2 nb + "
+                                    << extra_rows << (with_v ? ", v" : ", v null"));
+  std::mt19937_64 gen(seed);
+  std::normal_distribution<double> normal;
+  const Index ldg = 2 * nb + extra_rows, m = 2 * nb;
+  MatrixXd G(std::max<Index>(ldg, 1), r);
+  for (Index t = 0; t < r; ++t) {
+    for (Index i = 0; i < ldg; ++i) G(i, t) = i < m ? normal(gen) : kNaN;
+  }
+  MatrixXd Ld(r, k);
+  for (Index q = 0; q < k; ++q) {
+    for (Index t = 0; t < r; ++t) Ld(t, q) = t >= q ? normal(gen) : kNaN;
+  }
+  VectorXd v(r);
+  for (Index t = 0; t < r; ++t) v[t] = normal(gen);
+  const Index pad = 5;
+  VectorXd sq = VectorXd::Constant(m + pad, kSentinel), cross = sq, gv = sq;
+  detail::Pass2C2Avx2(nb, r, k, G.data(), ldg, Ld.data(), with_v ? v.data() : nullptr, sq.data(), cross.data(),
+                      gv.data());
+  MatrixXd W = MatrixXd::Zero(m, k), Wa = MatrixXd::Zero(m, k);  // W and the sums of |terms|
+  for (Index j = 0; j < m; ++j) {
+    for (Index q = 0; q < k; ++q) {
+      for (Index t = q; t < r; ++t) {
+        W(j, q) += G(j, t) * Ld(t, q);
+        Wa(j, q) += std::abs(G(j, t) * Ld(t, q));
+      }
+    }
+  }
+  for (Index j = 0; j < m; ++j) {
+    const Index p = j ^ 1;
+    const double sq_ref = W.row(j).squaredNorm(), cross_ref = W.row(j).dot(W.row(p));
+    const double scale_sq = Wa.row(j).squaredNorm(), scale_cross = Wa.row(j).dot(Wa.row(p));
+    EXPECT_LE(std::abs(sq[j] - sq_ref), 1e-13 * scale_sq) << "sq[" << j << "]";
+    EXPECT_LE(std::abs(cross[j] - cross_ref), 1e-13 * scale_cross) << "cross[" << j << "]";
+    if (with_v) {
+      double gv_ref = 0.0, gv_scale = 0.0;
+      for (Index t = 0; t < r; ++t) {
+        gv_ref += G(j, t) * v[t];
+        gv_scale += std::abs(G(j, t) * v[t]);
+      }
+      EXPECT_LE(std::abs(gv[j] - gv_ref), 1e-13 * gv_scale) << "gv[" << j << "]";
+    }
+  }
+  for (Index j = m; j < m + pad; ++j) {
+    EXPECT_EQ(sq[j], kSentinel);
+    EXPECT_EQ(cross[j], kSentinel);
+    EXPECT_EQ(gv[j], kSentinel);
+  }
+  if (!with_v) {
+    for (Index j = 0; j < m; ++j) EXPECT_EQ(gv[j], kSentinel) << "gv written with v null";
+  }
+}
+
+TEST(BlockDiagonalSimdTest, Pass2MatchesLoopsForEveryTail) {
+  if (!HasAvx2Fma()) GTEST_SKIP() << "CPU without AVX2/FMA";
+  std::uint64_t seed = 7;
+  for (Index nb : {0, 1, 2, 3, 4, 5, 7, 8, 9, 255, 256}) {
+    for (Index r : {1, 2, 5, 6, 7, 12, 19, 20, 21}) {
+      for (Index k : {r, (r + 1) / 2, Index{0}}) {
+        CheckPass2(nb, r, k, 0, true, seed++);
+        CheckPass2(nb, r, k, 7, false, seed++);
+        if (::testing::Test::HasFailure()) return;
+      }
+    }
+  }
+  CheckPass2(3, 70, 70, 2, true, 99);  // wide coupling: the padded last subsystem's heap buffer
+  CheckPass2(1000, 20, 20, 1, true, 98);
+}
+
+// C_1 = (U^{-1} + N)^{-1} and its lower trapezoidal factor, for U positive definite, singular
+// (rank 2 of 5: the QR branch) and zero, against the closed form where U is invertible.
+TEST(BlockDiagonalFactor, LowerTrapezoidalFactorOfTheCouplingCovariance) {
+  std::mt19937_64 gen(5);
+  std::normal_distribution<double> normal;
+  auto gaussian = [&](Index rows, Index cols) {
+    MatrixXd m(rows, cols);
+    for (Index j = 0; j < cols; ++j) {
+      for (Index i = 0; i < rows; ++i) m(i, j) = normal(gen);
+    }
+    return m;
+  };
+  const Index r = 5;
+  const MatrixXd Z = gaussian(9, r), N = Z.transpose() * Z;
+  for (const Index rank : {Index{5}, Index{2}, Index{0}}) {
+    SCOPED_TRACE("rank of U " + std::to_string(rank));
+    const MatrixXd B = gaussian(r, rank),
+                   U = B * B.transpose() + (rank == r ? MatrixXd::Identity(r, r) : MatrixXd(MatrixXd::Zero(r, r)));
+    MatrixXd C1;
+    const detail::CouplingFactor f = detail::BlockDiagonalFactor(U, N, &C1);
+    ASSERT_EQ(f.Ld.rows(), r);
+    ASSERT_EQ(f.FcT.cols(), r);
+    for (Index q = 0; q < f.Ld.cols(); ++q) {
+      for (Index t = 0; t < q; ++t) EXPECT_EQ(f.Ld(t, q), 0.0) << "Ld(" << t << ", " << q << ")";
+    }
+    EXPECT_LE((f.Ld * f.Ld.transpose() - C1).norm(), 1e-14 * std::max(C1.norm(), 1.0));
+    EXPECT_LE((f.FcT - f.Ld.transpose()).norm(), 0.0);
+    // Independent: C_1 = U - U (I + N U)^{-1} N U (Woodbury; valid for singular U too).
+    const MatrixXd I = MatrixXd::Identity(r, r);
+    const MatrixXd C1_ref = U - U * (I + N * U).partialPivLu().solve(N * U);
+    EXPECT_LE((C1 - C1_ref).norm(), 1e-12 * std::max(C1_ref.norm(), 1.0));
+    if (rank == 0) EXPECT_EQ(C1.norm(), 0.0);
+  }
 }
 
 }  // namespace

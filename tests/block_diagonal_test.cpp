@@ -139,6 +139,32 @@ TEST(BlockDiagonalKernels, SpecializedEqualGeneric) {
   }
 }
 
+// A singular coupling covariance (rank 3 of 7, and 0): C_1's pivoted factor then has fewer columns
+// than r (k < r). The specialized kernels (for c = 2 the AVX2 ones where the CPU has them), the
+// generic ones and the naive form (3)-(7) must agree; odd n exercises the kernels' tails.
+TEST(BlockDiagonalKernels, RankDeficientCouplingCovariance) {
+  for (const Index rank : {Index{3}, Index{0}}) {
+    for (const Index n : {Index{1}, Index{2}, Index{19}, Index{261}}) {
+      SCOPED_TRACE("rank " + std::to_string(rank) + ", n = " + std::to_string(n));
+      TestRng rng(900 + n + rank);
+      const Index c = 2, d = 1, r = 7;
+      CoupledStep s = RandomStep(rng, n, c, d, r);
+      const MatrixXd B = rng.Gaussian(r, rank);
+      s.U = B * B.transpose();
+      const MatrixXd P0 = PackedSpd(rng, c, n, 0.1);
+      detail::SetBlockDiagonalSpecializedKernels(false);
+      const BlockDiagonalCovarianceStep generic = BlockDiagonalCovarianceUpdate(s, P0);
+      detail::SetBlockDiagonalSpecializedKernels(true);
+      const BlockDiagonalCovarianceStep fast = BlockDiagonalCovarianceUpdate(s, P0);
+      const DenseGainCovarianceStep naive = NaiveBlockDiagonalCovarianceUpdate(s, P0);
+      EXPECT_LE(RelativeDifference(fast.P_filt, generic.P_filt), 1e-12);
+      EXPECT_LE(RelativeDifference(fast.P_filt, naive.P_filt), 1e-10);
+      EXPECT_LE(RelativeDifference(fast.gain.ToDense(), naive.K), 1e-10);
+      EXPECT_LE(RelativeDifference(fast.gain.C1, generic.gain.C1), 1e-12);
+    }
+  }
+}
+
 // The filter class over a time-varying system gives the same estimates as the naive kind.
 TEST(CoupledFilter, FastAndNaiveKindsAgreeOverARun) {
   TestRng rng(7);

@@ -237,6 +237,7 @@ class CoupledFilter {
   Eigen::VectorXd mu_u_;
   Eigen::MatrixXd sigma_u_;
   BlockDiagonalCovarianceStep work_;  // storage reused across steps
+  Eigen::VectorXd x_next_, nu_;       // the block-diagonal step's x_k and innovation (reused)
 };
 
 struct CoupledRun {
