@@ -72,8 +72,8 @@ void BM_Step(benchmark::State& state) {
   // The banded step with its process noise precomputed, as a banded EKF would (V, G, U fixed).
   MatrixXd Pb = P0;
   VectorXd xb = VectorXd::Zero(n * kC);
-  // One untimed step first: it allocates the filter's reused buffers (E^T, Y^T, P: 0.5 GB at n = 1e6),
-  // whose first-touch page faults are not part of a running filter's per-step cost.
+  // One untimed step first: it allocates the filter's reused buffers (P, J, x, innovation: 0.1 GB at
+  // n = 1e6), whose first-touch page faults are not part of a running filter's per-step cost.
   if (Kind != kfx::CoupledFilterKind::kBanded) filter.Step(s, y);
   for (auto _ : state) {
     if (Kind == kfx::CoupledFilterKind::kBanded) {
