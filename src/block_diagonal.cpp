@@ -1025,9 +1025,20 @@ void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Inde
   double* B = Buffer(w->B, chunk * d * c);
   double* Z = Buffer(w->Z, chunk * d * r);
   double* rnu = nu ? Buffer(w->rnu, chunk * d) : nullptr;
-  // The AVX2 kernel fuses Z, Z^T Z and Y^T nu for c = 2, d = 1 (Z itself is not kept).
-  const bool simd = c == 2 && d == 1 && !store_gain && SimdKernelsEnabled();
-  if (simd) Z = Buffer(w->Z, chunk * r + 64);
+  // The AVX2 kernels fuse Z, Z^T Z and Y^T nu for c = 2, d <= 2 (Z itself is not kept).
+  const bool simd = c == 2 && d <= 2 && !store_gain && SimdKernelsEnabled();
+  if (simd) Z = Buffer(w->Z, chunk * d * r + 64);
+  // R_c^{-T} nu of the chunk: Y^T nu = Z^T (R_c^{-T} nu).
+  auto whitened_innovation = [&](Index b0, Index nb) {
+    const double* nub = nu + b0 * d;
+    for (Index l = 0; l < nb; ++l) {
+      for (Index a = 0; a < d; ++a) {
+        double acc = 0.0;
+        for (Index b = 0; b <= a; ++b) acc += rinv[l * d * d + a * d + b] * nub[l * d + b];  // (R_c^{-1})_{ba}
+        rnu[l * d + a] = acc;
+      }
+    }
+  };
   for (Index b0 = i0; b0 < i1; b0 += chunk) {
     const Index nb = std::min(chunk, i1 - b0);
     predict_chunk(b0, nb);
@@ -1036,24 +1047,21 @@ void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Inde
     WhitenedMeasurement(c, d, nb, s.H.data() + b0 * d * c, rinv, B);
     const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
     if (simd) {
-      if (nu)
-        for (Index l = 0; l < nb; ++l) rnu[l] = rinv[l] * nu[b0 + l];
-      Pass1C2D1Avx2(nb, r, B, Gc.data(), Gc.outerStride(), nu ? rnu : nullptr, N->data(), ytnu ? ytnu->data() : nullptr,
-                    Z);
+      if (nu) whitened_innovation(b0, nb);
+      double* Nd = N->data();
+      double* yd = ytnu ? ytnu->data() : nullptr;
+      if (d == 1) {
+        Pass1C2D1Avx2(nb, r, B, Gc.data(), Gc.outerStride(), nu ? rnu : nullptr, Nd, yd, Z);
+      } else {
+        Pass1C2D2Avx2(nb, r, B, Gc.data(), Gc.outerStride(), nu ? rnu : nullptr, Nd, yd, Z);
+      }
       continue;
     }
     BlockRowsTimesRaw(B, d, c, nb, Gc.data(), Gc.outerStride(), Z, nb * d, r);
     const Eigen::Map<const MatrixXd> Zc(Z, nb * d, r);
     N->selfadjointView<Eigen::Lower>().rankUpdate(Zc.transpose());  // one DSYRK per chunk
-    if (nu) {                                                       // Y^T nu = Z^T (R_c^{-T} nu)
-      const double* nub = nu + b0 * d;
-      for (Index l = 0; l < nb; ++l) {
-        for (Index a = 0; a < d; ++a) {
-          double acc = 0.0;
-          for (Index b = 0; b <= a; ++b) acc += rinv[l * d * d + a * d + b] * nub[l * d + b];  // (R_c^{-1})_{ba}
-          rnu[l * d + a] = acc;
-        }
-      }
+    if (nu) {
+      whitened_innovation(b0, nb);
       ytnu->noalias() += Zc.transpose() * Eigen::Map<const VectorXd>(rnu, nb * d);
     }
     if (store_gain) {

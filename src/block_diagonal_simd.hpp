@@ -21,6 +21,14 @@ bool SimdKernelsEnabled();
 void Pass1C2D1Avx2(Eigen::Index nb, Eigen::Index r, const double* b, const double* g, Eigen::Index ldg,
                    const double* rnu, double* N, double* ytnu, double* scratch);
 
+/// Pass 1 for c = 2, d = 2 over nb subsystems: Z_l = B_l G_l (2 x r), with B_l the whitened
+/// measurement matrix R_c^{-T} H_l (2 x 2, column-major at B + 4 l) and G_l rows 2 l, 2 l + 1 of g
+/// (as above). Adds sum_l Z_l^T Z_l to the lower triangle of N and, when rnu (length 2 nb, entry
+/// 2 l + p for row p of subsystem l) is not null, sum_l Z_l^T rnu_l to ytnu. scratch holds at least
+/// 2 nb r + 64 doubles.
+void Pass1C2D2Avx2(Eigen::Index nb, Eigen::Index r, const double* B, const double* g, Eigen::Index ldg,
+                   const double* rnu, double* N, double* ytnu, double* scratch);
+
 /// Pass 2 for c = 2 over the 2 nb rows of g (column-major, r columns, leading dimension ldg): with
 /// w_j = g(j, :) Ld (1 x k; Ld is r x k column-major, lower trapezoidal: Ld(t, q) is 0 and never read
 /// for t < q), writes sq[j] = w_j w_j^T and cross[j] = w_j w_{j xor 1}^T (the other row of the same

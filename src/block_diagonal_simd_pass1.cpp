@@ -1,4 +1,4 @@
-// AVX2/FMA pass 1 of the block-diagonal filter for c = 2, d = 1 (src/block_diagonal_simd.hpp).
+// AVX2/FMA pass 1 of the block-diagonal filter for c = 2, d = 1 or 2 (src/block_diagonal_simd.hpp).
 // Compiled without -mavx2: every function here carries the target attribute and uses only
 // intrinsics and plain loops (no Eigen, no inline functions from headers compiled for the baseline).
 //
@@ -148,6 +148,45 @@ KFX_AVX2 void FormZ(Index m, Index r, const double* b, const double* g, Index ld
   }
 }
 
+// Z (m x r, leading dimension m, m a multiple of 4) of the m / 2 subsystems at B, g for d = 2: Z
+// row 2 l + p = B_l(p, :) G_l, in G's row order. With x = (g_{2l}, g_{2l+1}, g_{2l+2}, g_{2l+3}) a
+// vector of G's column t, z = (B_l(0,0), B_l(1,1), ...) x + (B_l(0,1), B_l(1,0), ...) swap(x);
+// ytnu += Z^T rnu (rnu in the same row order).
+KFX_AVX2 void FormZD2(Index m, Index r, const double* B, const double* g, Index ldg, const double* rnu, double* z,
+                      double* ytnu) {
+  alignas(32) double bd[kBlock], bo[kBlock];
+  for (Index q = 0; q < m; q += 2) {
+    const double* bl = B + 2 * q;  // column-major B_l of subsystem q / 2: B00, B10, B01, B11
+    bd[q] = bl[0];
+    bd[q + 1] = bl[3];
+    bo[q] = bl[2];
+    bo[q + 1] = bl[1];
+  }
+  for (Index t = 0; t < r; ++t) {
+    const double* gt = g + t * ldg;
+    const char* next = reinterpret_cast<const char*>(t + 1 < r ? gt + ldg : gt);  // prefetched along
+    double* zt = z + t * m;
+    __m256d acc = _mm256_setzero_pd();
+    for (Index q = 0; q < m; q += 4) {
+      _mm_prefetch(next + 8 * q, _MM_HINT_T0);
+      const __m256d x = _mm256_loadu_pd(gt + q);
+      const __m256d zq =
+          _mm256_fmadd_pd(_mm256_permute_pd(x, 0x5), _mm256_load_pd(bo + q), _mm256_mul_pd(x, _mm256_load_pd(bd + q)));
+      _mm256_store_pd(zt + q, zq);
+      if (rnu) acc = _mm256_fmadd_pd(_mm256_loadu_pd(rnu + q), zq, acc);
+    }
+    if (rnu) ytnu[t] += HorizontalSum(acc);
+  }
+}
+
+// The lower triangle of Z^T Z (m a multiple of 4) added to N (r x r).
+KFX_AVX2 void SyrkLower(Index m, const double* z, Index r, double* N) {
+  Index j0 = 0;
+  for (; j0 + 3 <= r; j0 += 3) SyrkColumnBlock<3>(m, z, r, j0, N);
+  if (r - j0 == 2) SyrkColumnBlock<2>(m, z, r, j0, N);
+  if (r - j0 == 1) SyrkColumnBlock<1>(m, z, r, j0, N);
+}
+
 }  // namespace
 
 KFX_AVX2 void Pass1C2D1Avx2(Index nb, Index r, const double* b, const double* g, Index ldg, const double* rnu,
@@ -160,10 +199,7 @@ KFX_AVX2 void Pass1C2D1Avx2(Index nb, Index r, const double* b, const double* g,
   for (Index l0 = 0; l0 < m; l0 += blk) {
     const Index mb = m - l0 < blk ? m - l0 : blk;
     FormZ(mb, r, b + 2 * l0, g + 2 * l0, ldg, rnu ? rnu + l0 : nullptr, z, ytnu);
-    Index j0 = 0;
-    for (; j0 + 3 <= r; j0 += 3) SyrkColumnBlock<3>(mb, z, r, j0, N);
-    if (r - j0 == 2) SyrkColumnBlock<2>(mb, z, r, j0, N);
-    if (r - j0 == 1) SyrkColumnBlock<1>(mb, z, r, j0, N);
+    SyrkLower(mb, z, r, N);
   }
   // The last nb mod 4 subsystems: one z row at a time (r doubles of scratch after the Z block;
   // blk r + r <= nb r since blk <= m < nb here).
@@ -179,6 +215,34 @@ KFX_AVX2 void Pass1C2D1Avx2(Index nb, Index r, const double* b, const double* g,
   }
 }
 
+KFX_AVX2 void Pass1C2D2Avx2(Index nb, Index r, const double* B, const double* g, Index ldg, const double* rnu,
+                            double* N, double* ytnu, double* scratch) {
+  if (nb <= 0 || r <= 0) return;
+  const Index m = 2 * (nb & ~Index{1});  // Z rows done four per vector (two subsystems)
+  const Index blk = m < kBlock ? m : kBlock;
+  double* z = reinterpret_cast<double*>((reinterpret_cast<std::uintptr_t>(scratch) + 31) & ~std::uintptr_t{31});
+  for (Index q0 = 0; q0 < m; q0 += blk) {
+    const Index mb = m - q0 < blk ? m - q0 : blk;
+    FormZD2(mb, r, B + 2 * q0, g + q0, ldg, rnu ? rnu + q0 : nullptr, z, ytnu);
+    SyrkLower(mb, z, r, N);
+  }
+  if (m == 2 * nb) return;
+  // The last subsystem (odd nb): its two Z rows one at a time (r doubles after the Z block;
+  // blk r + r <= 2 nb r).
+  double* zrow = z + blk * r;
+  const Index l = nb - 1;
+  const double* bl = B + 4 * l;
+  for (Index p = 0; p < 2; ++p) {
+    for (Index t = 0; t < r; ++t) zrow[t] = bl[p] * g[t * ldg + 2 * l] + bl[2 + p] * g[t * ldg + 2 * l + 1];
+    for (Index j = 0; j < r; ++j) {
+      for (Index i = j; i < r; ++i) N[j * r + i] += zrow[i] * zrow[j];
+    }
+    if (rnu) {
+      for (Index t = 0; t < r; ++t) ytnu[t] += rnu[2 * l + p] * zrow[t];
+    }
+  }
+}
+
 }  // namespace kfx::detail
 
 #else
@@ -187,6 +251,10 @@ namespace kfx::detail {
 void Pass1C2D1Avx2(Eigen::Index, Eigen::Index, const double*, const double*, Eigen::Index, const double*, double*,
                    double*, double*) {
   throw Error("Pass1C2D1Avx2: called on a CPU without AVX2 (SimdKernelsEnabled() is false)");
+}
+void Pass1C2D2Avx2(Eigen::Index, Eigen::Index, const double*, const double*, Eigen::Index, const double*, double*,
+                   double*, double*) {
+  throw Error("Pass1C2D2Avx2: called on a CPU without AVX2 (SimdKernelsEnabled() is false)");
 }
 }  // namespace kfx::detail
 

@@ -25,21 +25,22 @@ bool HasAvx2Fma() { return __builtin_cpu_supports("avx2") && __builtin_cpu_suppo
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kSentinel = 777.25;
 
-// One Pass1C2D1Avx2 call against triple loops (failures reported through gtest expectations).
-void CheckPass1(Index nb, Index r, Index extra_rows, bool with_rnu, std::uint64_t seed) {
-  SCOPED_TRACE(::testing::Message() << "nb = " << nb << ", r = " << r << ", ldg = 2 nb + " << extra_rows
-                                    << (with_rnu ? ", rnu" : ", rnu null"));
+// One Pass1C2D1Avx2 (d = 1) or Pass1C2D2Avx2 (d = 2) call against triple loops (failures reported
+// through gtest expectations). b holds each subsystem's d x 2 whitened measurement matrix, column-major.
+void CheckPass1(Index d, Index nb, Index r, Index extra_rows, bool with_rnu, std::uint64_t seed) {
+  SCOPED_TRACE(::testing::Message() << "d = " << d << ", nb = " << nb << ", r = " << r << ", ldg = 2 nb + "
+                                    << extra_rows << (with_rnu ? ", rnu" : ", rnu null"));
   std::mt19937_64 gen(seed);
   std::normal_distribution<double> normal;
   const Index ldg = 2 * nb + extra_rows;
-  // G rows beyond 2 nb, b beyond 2 nb and rnu beyond nb are NaN: reading them would show in N.
+  // G rows beyond 2 nb, b beyond 2 d nb and rnu beyond d nb are NaN: reading them would show in N.
   MatrixXd G(std::max<Index>(ldg, 1), r);
   for (Index t = 0; t < r; ++t) {
     for (Index i = 0; i < ldg; ++i) G(i, t) = i < 2 * nb ? normal(gen) : kNaN;
   }
-  VectorXd b = VectorXd::Constant(2 * nb + 8, kNaN), rnu = VectorXd::Constant(nb + 8, kNaN);
-  for (Index i = 0; i < 2 * nb; ++i) b[i] = normal(gen);
-  for (Index i = 0; i < nb; ++i) rnu[i] = normal(gen);
+  VectorXd b = VectorXd::Constant(2 * d * nb + 8, kNaN), rnu = VectorXd::Constant(d * nb + 8, kNaN);
+  for (Index i = 0; i < 2 * d * nb; ++i) b[i] = normal(gen);
+  for (Index i = 0; i < d * nb; ++i) rnu[i] = normal(gen);
   // N starts non-zero (lower triangle), the strict upper triangle holds a sentinel.
   MatrixXd N0(r, r);
   for (Index j = 0; j < r; ++j) {
@@ -48,39 +49,47 @@ void CheckPass1(Index nb, Index r, Index extra_rows, bool with_rnu, std::uint64_
   VectorXd y0(r);
   for (Index t = 0; t < r; ++t) y0[t] = normal(gen);
 
-  // Reference: z_l = b_l G_l, N += sum z_l^T z_l, ytnu += sum rnu_l z_l; scale = the same sums of
-  // absolute values (the magnitude the rounding errors are relative to).
+  // Reference: z_{l,p} = b_l(p, :) G_l, N += sum z^T z, ytnu += sum rnu_{l,p} z_{l,p}; scale = the
+  // same sums of absolute values (the magnitude the rounding errors are relative to).
   MatrixXd N_ref = N0, N_scale = N0.cwiseAbs();
   VectorXd y_ref = y0, y_scale = y0.cwiseAbs();
   VectorXd z(r), za(r);
   for (Index l = 0; l < nb; ++l) {
-    for (Index t = 0; t < r; ++t) {
-      z[t] = b[2 * l] * G(2 * l, t) + b[2 * l + 1] * G(2 * l + 1, t);
-      za[t] = std::abs(b[2 * l] * G(2 * l, t)) + std::abs(b[2 * l + 1] * G(2 * l + 1, t));
-    }
-    for (Index j = 0; j < r; ++j) {
-      for (Index i = j; i < r; ++i) {
-        N_ref(i, j) += z[i] * z[j];
-        N_scale(i, j) += za[i] * za[j];
-      }
-    }
-    if (with_rnu) {
+    for (Index p = 0; p < d; ++p) {
+      const double b0 = b[2 * d * l + p], b1 = b[2 * d * l + d + p];
       for (Index t = 0; t < r; ++t) {
-        y_ref[t] += rnu[l] * z[t];
-        y_scale[t] += std::abs(rnu[l]) * za[t];
+        z[t] = b0 * G(2 * l, t) + b1 * G(2 * l + 1, t);
+        za[t] = std::abs(b0 * G(2 * l, t)) + std::abs(b1 * G(2 * l + 1, t));
+      }
+      for (Index j = 0; j < r; ++j) {
+        for (Index i = j; i < r; ++i) {
+          N_ref(i, j) += z[i] * z[j];
+          N_scale(i, j) += za[i] * za[j];
+        }
+      }
+      if (with_rnu) {
+        for (Index t = 0; t < r; ++t) {
+          y_ref[t] += rnu[d * l + p] * z[t];
+          y_scale[t] += std::abs(rnu[d * l + p]) * za[t];
+        }
       }
     }
   }
 
-  // Scratch of exactly nb r + 64 doubles, deliberately not 32-byte aligned, followed by a guard.
-  const Index scratch_size = nb * r + 64, guard = 16;
+  // Scratch of exactly d nb r + 64 doubles, deliberately not 32-byte aligned, followed by a guard.
+  const Index scratch_size = d * nb * r + 64, guard = 16;
   std::vector<double> scratch_buffer(static_cast<size_t>(scratch_size + guard + 1), 0.0);
   double* scratch = scratch_buffer.data() + 1;
   for (Index i = scratch_size; i < scratch_size + guard; ++i) scratch[i] = kSentinel;
 
   MatrixXd N = N0;
   VectorXd y = y0;
-  detail::Pass1C2D1Avx2(nb, r, b.data(), G.data(), ldg, with_rnu ? rnu.data() : nullptr, N.data(), y.data(), scratch);
+  const double* rnu_arg = with_rnu ? rnu.data() : nullptr;
+  if (d == 1) {
+    detail::Pass1C2D1Avx2(nb, r, b.data(), G.data(), ldg, rnu_arg, N.data(), y.data(), scratch);
+  } else {
+    detail::Pass1C2D2Avx2(nb, r, b.data(), G.data(), ldg, rnu_arg, N.data(), y.data(), scratch);
+  }
 
   for (Index j = 0; j < r; ++j) {
     for (Index i = 0; i < r; ++i) {
@@ -101,7 +110,7 @@ void CheckPass1(Index nb, Index r, Index extra_rows, bool with_rnu, std::uint64_
     }
   }
   for (Index i = scratch_size; i < scratch_size + guard; ++i) {
-    EXPECT_EQ(scratch[i], kSentinel) << "scratch written beyond nb r + 64 at " << i;
+    EXPECT_EQ(scratch[i], kSentinel) << "scratch written beyond d nb r + 64 at " << i;
   }
 }
 
@@ -110,9 +119,9 @@ TEST(BlockDiagonalSimdTest, Pass1MatchesLoopsForEveryTail) {
   std::uint64_t seed = 1;
   for (Index nb : {0, 1, 3, 4, 5, 7, 8, 63, 64, 65, 255, 256}) {
     for (Index r : {0, 1, 2, 3, 4, 5, 19, 20, 21, 33}) {
-      CheckPass1(nb, r, 0, true, seed++);
-      CheckPass1(nb, r, 6, false, seed++);
-      CheckPass1(nb, r, 13, true, seed++);
+      CheckPass1(1, nb, r, 0, true, seed++);
+      CheckPass1(1, nb, r, 6, false, seed++);
+      CheckPass1(1, nb, r, 13, true, seed++);
       if (::testing::Test::HasFailure()) return;  // one report per broken shape is enough
     }
   }
@@ -120,9 +129,22 @@ TEST(BlockDiagonalSimdTest, Pass1MatchesLoopsForEveryTail) {
 
 TEST(BlockDiagonalSimdTest, Pass1LargeChunkAndWideCoupling) {
   if (!HasAvx2Fma()) GTEST_SKIP() << "CPU without AVX2/FMA";
-  CheckPass1(1001, 20, 40, true, 101);  // beyond the filter's chunk of 256
-  CheckPass1(256, 64, 2, true, 102);
-  CheckPass1(9, 70, 1, true, 103);
+  CheckPass1(1, 1001, 20, 40, true, 101);  // beyond the filter's chunk of 256
+  CheckPass1(1, 256, 64, 2, true, 102);
+  CheckPass1(1, 9, 70, 1, true, 103);
+}
+
+TEST(BlockDiagonalSimdTest, Pass1TwoMeasurementsMatchesLoopsForEveryTail) {
+  if (!HasAvx2Fma()) GTEST_SKIP() << "CPU without AVX2/FMA";
+  std::uint64_t seed = 300;
+  for (Index nb : {0, 1, 2, 3, 4, 5, 127, 128, 129, 256}) {
+    for (Index r : {0, 1, 2, 3, 4, 5, 19, 20, 21}) {
+      CheckPass1(2, nb, r, 0, true, seed++);
+      CheckPass1(2, nb, r, 5, false, seed++);
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+  CheckPass1(2, 301, 20, 3, true, 399);  // several 128-subsystem blocks and an odd tail
 }
 
 // One Pass2C2Avx2 call against loops: w_j = g(j, :) Ld, sq_j = |w_j|^2, cross_j = w_j . w_{j xor 1},
@@ -229,7 +251,9 @@ TEST(BlockDiagonalFactor, LowerTrapezoidalFactorOfTheCouplingCovariance) {
     const MatrixXd I = MatrixXd::Identity(r, r);
     const MatrixXd C1_ref = U - U * (I + N * U).partialPivLu().solve(N * U);
     EXPECT_LE((C1 - C1_ref).norm(), 1e-12 * std::max(C1_ref.norm(), 1.0));
-    if (rank == 0) EXPECT_EQ(C1.norm(), 0.0);
+    if (rank == 0) {
+      EXPECT_EQ(C1.norm(), 0.0);
+    }
   }
 }
 
