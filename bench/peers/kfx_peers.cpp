@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "../../src/lapack_fortran.hpp"
+#include "base/lapack_fortran.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/riccati.hpp"

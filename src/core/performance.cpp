@@ -1,0 +1,301 @@
+#include "kfx/performance.hpp"
+#include "core/performance_internal.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "kfx/error.hpp"
+#include "kfx/riccati.hpp"
+#include "kfx/simulation.hpp"
+#include "kfx/validation.hpp"
+
+namespace kfx {
+
+namespace {
+
+void CheckCompatible(const Model& truth, const LinearFilter& filter) {
+  if (filter.meas_dim() != truth.meas_dim()) {
+    throw Error("filter: expected a gain with " + std::to_string(truth.meas_dim()) +
+                " columns (the model's measurement dimension), got " + std::to_string(filter.meas_dim()));
+  }
+  if (filter.output_dim() != truth.state_dim()) {
+    throw Error("filter: expected an output map to the model's " + std::to_string(truth.state_dim()) + " states, got " +
+                std::to_string(filter.output_dim()) + " outputs");
+  }
+}
+
+void CheckWeight(const Eigen::MatrixXd& weight, Eigen::Index n, const std::string& name) {
+  if (weight.size() == 0) return;
+  RequireShape(name, weight, n, n);
+  RequirePositiveSemidefinite(name, weight);
+}
+
+int ResolveHorizon(const Model& truth, const LinearFilter& filter, int steps) {
+  if (steps >= 0) {
+    truth.ResolveSteps(steps, "steps");
+    if (filter.horizon() >= 0 && steps > filter.horizon()) {
+      throw Error("steps: expected at most " + std::to_string(filter.horizon()) + " (the filter's horizon), got " +
+                  std::to_string(steps));
+    }
+    return steps;
+  }
+  int T = -1;
+  if (truth.horizon() >= 0) T = truth.horizon();
+  if (filter.horizon() >= 0) T = T < 0 ? filter.horizon() : std::min(T, filter.horizon());
+  if (T < 0) throw Error("steps: expected a number of steps (model and filter both have no horizon)");
+  return T;
+}
+
+// Validates options, dimensions and weight of an evaluation; returns the number of steps T.
+template <typename Options>
+int CheckEvaluation(const Model& truth, const LinearFilter& filter, const Options& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw Error("options." + why);
+  CheckCompatible(truth, filter);
+  CheckWeight(options.weight, truth.state_dim(), "options.weight");
+  return ResolveHorizon(truth, filter, options.steps);
+}
+
+double WeightedTrace(const Eigen::MatrixXd& weight, const Eigen::MatrixXd& E) {
+  if (weight.size() == 0) return E.trace();
+  return weight.cwiseProduct(E).sum();  // tr(W E) for symmetric E
+}
+
+// E[e e^T] with e = x - O z from second moments (Mxx, Mxz, Mzz include the means).
+Eigen::MatrixXd ErrorMoment(const Eigen::MatrixXd& Mxx, const Eigen::MatrixXd& Mxz, const Eigen::MatrixXd& Mzz,
+                            const Eigen::MatrixXd& O) {
+  Eigen::MatrixXd E = Mxx;
+  if (O.size() == 0) {
+    E -= Mxz;
+    E -= Mxz.transpose();
+    E += Mzz;
+  } else {
+    const Eigen::MatrixXd OMzx = O * Mxz.transpose();  // n x n
+    E -= OMzx;
+    E -= OMzx.transpose();
+    E.noalias() += O * Mzz * O.transpose();
+  }
+  Symmetrize(E);
+  return E;
+}
+
+}  // namespace
+
+const char* ToString(StationaryMethod method) {
+  switch (method) {
+    case StationaryMethod::kJoint:
+      return "joint";
+    case StationaryMethod::kErrorCoordinates:
+      return "error-coordinates";
+    case StationaryMethod::kNone:
+      return "none";
+  }
+  return "?";
+}
+
+bool PerformanceOptions::IsValid(std::string* error) const {
+  if (weight.size() > 0 && weight.rows() != weight.cols()) {
+    if (error) *error = "weight: expected a square matrix";
+    return false;
+  }
+  return true;
+}
+
+bool MonteCarloOptions::IsValid(std::string* error) const {
+  if (runs < 2) {
+    if (error) *error = "runs: expected at least 2 runs, got " + std::to_string(runs);
+    return false;
+  }
+  if (weight.size() > 0 && weight.rows() != weight.cols()) {
+    if (error) *error = "weight: expected a square matrix";
+    return false;
+  }
+  return true;
+}
+
+PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter, const PerformanceOptions& options) {
+  const int T = CheckEvaluation(truth, filter, options);
+  const Eigen::Index n = truth.state_dim();
+
+  PerformanceResult res;
+  res.mse.resize(T + 1);
+  res.weighted_mse.resize(T + 1);
+  res.bias.resize(T + 1, n);
+  if (options.store_error_moments) res.error_moment.reserve(static_cast<size_t>(T) + 1);
+
+  // Joint state: covariances Sxx, Sxz, Szz and means mx, mz; z_0 is deterministic.
+  const Eigen::Index nz = filter.state_dim();
+  Eigen::MatrixXd Sxx = truth.P0();
+  Eigen::MatrixXd Sxz = Eigen::MatrixXd::Zero(n, nz);
+  Eigen::MatrixXd Szz = Eigen::MatrixXd::Zero(nz, nz);
+  Eigen::VectorXd mx = truth.m0();
+  Eigen::VectorXd mz = filter.z0();
+
+  auto record = [&](int k, const Eigen::MatrixXd& O) {
+    const Eigen::MatrixXd E =
+        ErrorMoment(Sxx + mx * mx.transpose(), Sxz + mx * mz.transpose(), Szz + mz * mz.transpose(), O);
+    res.mse(k) = E.trace();
+    res.weighted_mse(k) = WeightedTrace(options.weight, E);
+    res.bias.row(k) = (mx - ApplyOutput(O, mz)).transpose();
+    if (options.store_error_moments) res.error_moment.push_back(E);
+  };
+  record(0, filter.O0());
+
+  Eigen::MatrixXd ASxz, CASxz, Sxy, Syy, KSyy, tmp;
+  for (int k = 1; k <= T; ++k) {
+    const StepPtr s = truth.step(k);
+    const LinearFilterStepPtr f = filter.step(k);
+    // x' = A x + w;  y' = C x' + v;  z' = K y' + Phi z.
+    ASxz.noalias() = s->A * Sxz;  // E[x' z^T]
+    tmp.noalias() = s->A * Sxx;
+    Sxx = s->Q;
+    Sxx.noalias() += tmp * s->A.transpose();  // E[x' x'^T]
+    Symmetrize(Sxx);
+    Sxy.noalias() = Sxx * s->C.transpose();  // E[x' y'^T]
+    Syy = s->R;
+    Syy.noalias() += s->C * Sxy;    // E[y' y'^T]
+    CASxz.noalias() = s->C * ASxz;  // E[y' z^T]
+    // Szz' = K Syy K^T + K E[y'z^T] Phi^T + Phi E[z y'^T] K^T + Phi Szz Phi^T
+    Eigen::MatrixXd KCASxzPhit = f->K * CASxz * f->Phi.transpose();
+    Eigen::MatrixXd Szz_new = f->Phi * Szz * f->Phi.transpose();
+    Szz_new.noalias() += f->K * Syy * f->K.transpose();
+    Szz_new += KCASxzPhit;
+    Szz_new += KCASxzPhit.transpose();
+    Symmetrize(Szz_new);
+    Szz.swap(Szz_new);
+    // Sxz' = E[x' y'^T] K^T + E[x' z^T] Phi^T
+    Sxz.noalias() = Sxy * f->K.transpose();
+    Sxz.noalias() += ASxz * f->Phi.transpose();
+    // Means.
+    mx = s->A * mx;
+    mz = (f->Phi * mz + f->K * (s->C * mx)).eval();
+    record(k, f->O);
+    if (options.progress) options.progress(k, T);
+  }
+  return res;
+}
+
+StationaryPerformance ExactStationaryPerformance(const Model& truth, const LinearFilter& filter,
+                                                 const Eigen::MatrixXd& weight) {
+  if (!truth.time_invariant()) throw Error("truth: expected a time-invariant model for stationary performance");
+  if (!filter.time_invariant()) throw Error("filter: expected a time-invariant filter for stationary performance");
+  CheckCompatible(truth, filter);
+  const Eigen::Index n = truth.state_dim(), nz = filter.state_dim(), m = truth.meas_dim();
+  CheckWeight(weight, n, "weight");
+  const StepPtr s = truth.step(1);
+  const LinearFilterStepPtr f = filter.step(1);
+  StationaryPerformance out;
+  const double rho_a = SpectralRadius(s->A);
+  const double rho_phi = SpectralRadius(f->Phi);
+  LyapunovSummary ls;
+  if (rho_a < 1.0 && rho_phi < 1.0) {
+    // Joint system AA = [[A, 0], [K C A, Phi]], noise BB diag(Q, R) BB^T with BB = [[I, 0], [K C, K]].
+    Eigen::MatrixXd AA = Eigen::MatrixXd::Zero(n + nz, n + nz);
+    AA.topLeftCorner(n, n) = s->A;
+    AA.bottomLeftCorner(nz, n) = f->K * s->C * s->A;
+    AA.bottomRightCorner(nz, nz) = f->Phi;
+    const Eigen::MatrixXd KC = f->K * s->C;
+    Eigen::MatrixXd N(n + nz, n + nz);
+    N.topLeftCorner(n, n) = s->Q;
+    N.topRightCorner(n, nz) = s->Q * KC.transpose();
+    N.bottomLeftCorner(nz, n) = KC * s->Q;
+    N.bottomRightCorner(nz, nz) = KC * s->Q * KC.transpose() + f->K * s->R * f->K.transpose();
+    Symmetrize(N);
+    const Eigen::MatrixXd Sigma = SolveDiscreteLyapunov(AA, N, &ls);
+    out.error_cov =
+        ErrorMoment(Sigma.topLeftCorner(n, n), Sigma.topRightCorner(n, nz), Sigma.bottomRightCorner(nz, nz), f->O);
+    out.method = StationaryMethod::kJoint;
+    out.message =
+        "joint Lyapunov equation (rho(A) = " + std::to_string(rho_a) + ", rho(Phi) = " + std::to_string(rho_phi) + ")";
+  } else {
+    bool consistent =
+        nz == n && (f->O.size() == 0 || (f->O - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff() <= 1e-12);
+    Eigen::MatrixXd IKC = Eigen::MatrixXd::Identity(n, n);
+    if (consistent) {
+      IKC.noalias() -= f->K * s->C;
+      const Eigen::MatrixXd F = IKC * s->A;
+      const double scale = std::max(1.0, F.cwiseAbs().maxCoeff());
+      consistent = (F - f->Phi).cwiseAbs().maxCoeff() <= 1e-10 * scale;
+      if (consistent && rho_phi < 1.0) {
+        Eigen::MatrixXd N = IKC * s->Q * IKC.transpose() + f->K * s->R * f->K.transpose();
+        Symmetrize(N);
+        out.error_cov = SolveDiscreteLyapunov(F, N, &ls);
+        Symmetrize(out.error_cov);
+        out.method = StationaryMethod::kErrorCoordinates;
+        out.message = "error coordinates: consistent filter, rho((I - K C) A) = " + std::to_string(rho_phi) +
+                      " (true system rho(A) = " + std::to_string(rho_a) + ")";
+      }
+    }
+    if (out.method == StationaryMethod::kNone) {
+      out.message = rho_phi >= 1.0
+                        ? "no stationary error: the filter is unstable (rho(Phi) = " + std::to_string(rho_phi) + ")"
+                        : "no stationary error: the true system is unstable (rho(A) = " + std::to_string(rho_a) +
+                              ") and the filter is not consistent with it (Phi != (I - K C) A), so the "
+                              "error grows with the state; use ExactPerformance over a finite horizon";
+      out.mse = std::numeric_limits<double>::infinity();
+      out.weighted_mse = out.mse;
+      return out;
+    }
+  }
+  (void)m;
+  out.lyapunov_residual = ls.relative_residual;
+  out.mse = out.error_cov.trace();
+  out.weighted_mse = WeightedTrace(weight, out.error_cov);
+  return out;
+}
+
+MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
+                                       const MonteCarloOptions& options) {
+  const int T = CheckEvaluation(truth, filter, options);
+  const Eigen::Index n = truth.state_dim();
+  const int R = options.runs;
+
+  // Welford accumulators per time step.
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(T + 1), m2 = Eigen::VectorXd::Zero(T + 1);
+  Eigen::VectorXd wmean = Eigen::VectorXd::Zero(T + 1), wm2 = Eigen::VectorXd::Zero(T + 1);
+  TimeSeries bias = TimeSeries::Zero(T + 1, n);
+  std::vector<Eigen::MatrixXd> moments;
+  if (options.store_error_moments) moments.assign(static_cast<size_t>(T) + 1, Eigen::MatrixXd::Zero(n, n));
+
+  for (int r = 0; r < R; ++r) {
+    Rng rng(Rng::StreamSeed(options.seed, static_cast<std::uint64_t>(r)));
+    const Trajectory tr = Simulate(truth, T, rng);
+    const TimeSeries est = RunLinearFilter(filter, tr.y);
+    const TimeSeries err = tr.x - est;
+    const double cnt = r + 1.0;
+    for (int k = 0; k <= T; ++k) {
+      const Eigen::VectorXd e = err.row(k).transpose();
+      const double v = e.squaredNorm();
+      const double wv = options.weight.size() == 0 ? v : e.dot(options.weight * e);
+      double d = v - mean(k);
+      mean(k) += d / cnt;
+      m2(k) += d * (v - mean(k));
+      d = wv - wmean(k);
+      wmean(k) += d / cnt;
+      wm2(k) += d * (wv - wmean(k));
+      if (options.store_error_moments) moments[static_cast<size_t>(k)].noalias() += e * e.transpose();
+    }
+    bias += err;
+    if (options.progress) options.progress(r + 1, R);
+  }
+  MonteCarloResult res;
+  res.runs = R;
+  res.mse = mean;
+  res.weighted_mse = wmean;
+  res.mse_std_error = (m2 / (R - 1.0) / static_cast<double>(R)).cwiseSqrt();
+  res.weighted_mse_std_error = (wm2 / (R - 1.0) / static_cast<double>(R)).cwiseSqrt();
+  res.bias = bias / static_cast<double>(R);
+  if (options.store_error_moments) {
+    for (auto& M : moments) M /= static_cast<double>(R);
+    res.error_moment = std::move(moments);
+  }
+  return res;
+}
+
+}  // namespace kfx
+
+namespace kfx::detail {
+int CheckMonteCarloEvaluation(const Model& truth, const LinearFilter& filter, const MonteCarloOptions& options) {
+  return CheckEvaluation(truth, filter, options);
+}
+}  // namespace kfx::detail

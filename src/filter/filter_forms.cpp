@@ -1,0 +1,528 @@
+// Square-root, UD (Bierman-Thornton) and information forms of the Kalman filter.
+//
+// Square root (as SLICOT FB01QD, one orthogonal transformation per half-step, Householder QR):
+//   predict: [A L, G_Q]^T = Q_1 [L'^T; 0]                         (P' = A P A^T + Q = L' L'^T)
+//   update:  [[L_R^T, 0], [(C L)^T, L^T]] = Q_2 [[S_e^T, Kb^T], [0, L+^T]]
+//            S = S_e S_e^T, K = Kb S_e^{-1}, P+ = L+ L+^T
+// UD: P = U D U^T (U unit upper triangular, D diagonal). Measurements are decorrelated by the
+//   Cholesky factor of R (y~ = L_R^{-1} y) and processed one at a time by Bierman's update; the
+//   time update is Thornton's modified weighted Gram-Schmidt of [A U, G_Q] with weights diag(D, I).
+// Information: Y = P^{-1}. Update Y+ = Y + C^T R^{-1} C; predict Y' = (I + M Q)^{-1} M with
+//   M = A^{-T} Y A^{-1} (A invertible) or Y' = Q^{-1} - Q^{-1} A (Y + A^T Q^{-1} A)^{-1} A^T Q^{-1} (Q > 0).
+// References: Bierman, Factorization Methods for Discrete Sequential Estimation (1977); Thornton &
+// Bierman (1978); Kaminski, Bryson & Schmidt, IEEE TAC 16 (1971); SLICOT FB01QD/FB01RD.
+#include "filter/filter_forms.hpp"
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "kfx/error.hpp"
+#include "kfx/validation.hpp"
+
+namespace kfx::detail {
+
+namespace {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+
+// G with G G^T = M for a symmetric positive semidefinite M (pivoted LDL^T; pivots that rounding
+// made negative are set to zero). n x n, not triangular.
+MatrixXd PsdFactor(const MatrixXd& M, const char* what) {
+  Eigen::LDLT<MatrixXd> ldlt(M);
+  if (ldlt.info() != Eigen::Success) throw NumericalError(std::string(what) + ": LDL^T factorization failed");
+  const VectorXd sqrt_d = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt();
+  MatrixXd L = ldlt.matrixL();
+  L = L * sqrt_d.asDiagonal();
+  return ldlt.transpositionsP().transpose() * L;
+}
+
+// Thornton's modified weighted Gram-Schmidt: U D U^T = W diag(dw) W^T, U unit upper triangular.
+void Mwgs(MatrixXd W, const VectorXd& dw, MatrixXd* U, VectorXd* d) {
+  const Index n = W.rows();
+  U->setIdentity(n, n);
+  d->resize(n);
+  for (Index j = n - 1; j >= 0; --j) {
+    const VectorXd c = dw.cwiseProduct(W.row(j).transpose());
+    const double dj = W.row(j).dot(c);
+    (*d)(j) = dj;
+    if (!(dj > 0.0)) {
+      (*d)(j) = 0.0;  // P' singular in this direction: the column of U is irrelevant
+      continue;
+    }
+    const VectorXd v = c / dj;
+    for (Index i = 0; i < j; ++i) {
+      const double uij = W.row(i).dot(v);
+      (*U)(i, j) = uij;
+      W.row(i) -= uij * W.row(j);
+    }
+  }
+}
+
+// Bierman's scalar update of U, d with measurement row h and noise variance 1. Returns the gain k
+// (x+ = x + k (y - h x)) and the innovation variance alpha = h P h^T + 1.
+double BiermanScalar(MatrixXd& U, VectorXd& d, const VectorXd& h, VectorXd* k) {
+  const Index n = U.rows();
+  const VectorXd f = U.transpose() * h;
+  const VectorXd v = d.cwiseProduct(f);
+  VectorXd b = VectorXd::Zero(n);
+  double alpha = 1.0 + f(0) * v(0);
+  d(0) /= alpha;
+  b(0) = v(0);
+  for (Index j = 1; j < n; ++j) {
+    const double beta = alpha;
+    alpha += f(j) * v(j);
+    const double lambda = -f(j) / beta;
+    d(j) *= beta / alpha;
+    for (Index i = 0; i < j; ++i) {
+      const double t = U(i, j);
+      U(i, j) = t + b(i) * lambda;
+      b(i) += t * v(j);
+    }
+    b(j) = v(j);
+  }
+  *k = b / alpha;
+  return alpha;
+}
+
+std::string FormName(FilterForm f) {
+  switch (f) {
+    case FilterForm::kSquareRoot:
+      return "square-root form";
+    case FilterForm::kUD:
+      return "UD form";
+    case FilterForm::kInformation:
+      return "information form";
+    default:
+      return "conventional form";
+  }
+}
+
+struct MeasurementUpdate {
+  MatrixXd K;  // n x m_o
+  MatrixXd S;  // m_o x m_o
+  double log_det_S = 0.0;
+  double nis = 0.0;  // nu^T S^{-1} nu
+  VectorXd dx;       // K nu
+};
+
+// The covariance of one form, kept factored between steps.
+class FactoredCovariance {
+ public:
+  FactoredCovariance(FilterForm form, const MatrixXd& P) : form_(form), n_(P.rows()) {
+    switch (form_) {
+      case FilterForm::kSquareRoot:
+        L_ = PsdFactor(P, "P");
+        break;
+      case FilterForm::kUD:
+        Mwgs(PsdFactor(P, "P"), VectorXd::Ones(n_), &U_, &d_);
+        break;
+      case FilterForm::kInformation: {
+        Eigen::LLT<MatrixXd> llt(P);
+        if (llt.info() != Eigen::Success) {
+          throw NumericalError("information form: expected a positive definite covariance P (Cholesky failed)");
+        }
+        Y_ = llt.solve(MatrixXd::Identity(n_, n_));
+        Symmetrize(Y_);
+        break;
+      }
+      default:
+        throw InternalError("FactoredCovariance: conventional form");
+    }
+  }
+
+  MatrixXd Covariance() const {
+    MatrixXd P;
+    switch (form_) {
+      case FilterForm::kSquareRoot:
+        P.noalias() = L_ * L_.transpose();
+        break;
+      case FilterForm::kUD:
+        P.noalias() = U_ * d_.asDiagonal() * U_.transpose();
+        break;
+      default: {
+        Eigen::LLT<MatrixXd> llt(Y_);
+        if (llt.info() != Eigen::Success) {
+          throw NumericalError("information matrix not positive definite (Cholesky failed)");
+        }
+        P = llt.solve(MatrixXd::Identity(n_, n_));
+        break;
+      }
+    }
+    Symmetrize(P);
+    return P;
+  }
+
+  void Predict(const ModelStep& s) {
+    const MatrixXd& A = s.A;
+    if (form_ == FilterForm::kInformation) {
+      PredictInformation(s);
+      return;
+    }
+    const MatrixXd& G = NoiseFactor(s);
+    if (form_ == FilterForm::kSquareRoot) {
+      MatrixXd pre(L_.cols() + G.cols(), n_);
+      pre.topRows(L_.cols()).noalias() = (A * L_).transpose();
+      pre.bottomRows(G.cols()) = G.transpose();
+      Eigen::HouseholderQR<MatrixXd> qr(pre);
+      L_ = qr.matrixQR().topRows(n_).triangularView<Eigen::Upper>().transpose();
+    } else {
+      MatrixXd W(n_, n_ + G.cols());
+      W.leftCols(n_).noalias() = A * U_;
+      W.rightCols(G.cols()) = G;
+      VectorXd dw(n_ + G.cols());
+      dw << d_, VectorXd::Ones(G.cols());
+      Mwgs(std::move(W), dw, &U_, &d_);
+    }
+  }
+
+  // Update with the observed rows C (m_o x n), their noise covariance R and innovation nu.
+  MeasurementUpdate Update(const MatrixXd& C, const MatrixXd& R, const VectorXd& nu) {
+    const Index m = C.rows();
+    Eigen::LLT<MatrixXd> r_llt(R);
+    if (r_llt.info() != Eigen::Success) {
+      throw NumericalError("measurement noise covariance R: not positive definite (Cholesky failed)");
+    }
+    const MatrixXd Lr = r_llt.matrixL();
+    MeasurementUpdate u;
+    if (form_ == FilterForm::kSquareRoot) {
+      const Index p = L_.cols();
+      MatrixXd pre = MatrixXd::Zero(m + p, m + n_);
+      pre.topLeftCorner(m, m) = Lr.transpose();
+      pre.bottomLeftCorner(p, m).noalias() = (C * L_).transpose();
+      pre.bottomRightCorner(p, n_) = L_.transpose();
+      Eigen::HouseholderQR<MatrixXd> qr(pre);
+      const MatrixXd& Rq = qr.matrixQR();
+      const MatrixXd R11 = Rq.topLeftCorner(m, m).triangularView<Eigen::Upper>();
+      if (!(R11.diagonal().cwiseAbs().minCoeff() > 0.0)) {
+        throw NumericalError("innovation covariance S: singular square-root factor");
+      }
+      const MatrixXd R12 = Rq.topRightCorner(m, n_);
+      u.K = R11.triangularView<Eigen::Upper>().solve(R12).transpose();
+      u.S.noalias() = R11.transpose() * R11;
+      u.log_det_S = 2.0 * R11.diagonal().cwiseAbs().array().log().sum();
+      const VectorXd w = R11.transpose().triangularView<Eigen::Lower>().solve(nu);
+      u.nis = w.squaredNorm();
+      // L+ = R22^T: n x n lower triangular (rows m.. of the triangular factor exist when p >= n).
+      MatrixXd R22 = MatrixXd::Zero(n_, n_);
+      const Index rows = std::min<Index>(n_, Rq.rows() - m);
+      R22.topRows(rows) = Rq.block(m, m, rows, n_).triangularView<Eigen::Upper>();
+      L_ = R22.transpose();
+    } else if (form_ == FilterForm::kUD) {
+      const MatrixXd CU = C * U_;
+      u.S = R;
+      u.S.noalias() += CU * d_.asDiagonal() * CU.transpose();
+      const MatrixXd Ct = Lr.triangularView<Eigen::Lower>().solve(C);  // decorrelated rows
+      const VectorXd nut = Lr.triangularView<Eigen::Lower>().solve(nu);
+      MatrixXd Gw(n_, m);  // gain for the decorrelated innovations
+      VectorXd dx = VectorXd::Zero(n_), k;
+      double log_alpha = 0.0;
+      for (Index i = 0; i < m; ++i) {
+        const VectorXd h = Ct.row(i).transpose();
+        const double e = nut(i) - h.dot(dx);
+        const double alpha = BiermanScalar(U_, d_, h, &k);
+        log_alpha += std::log(alpha);
+        u.nis += e * e / alpha;
+        dx += k * e;
+        if (i > 0) {
+          const Eigen::RowVectorXd hG = h.transpose() * Gw.leftCols(i);
+          Gw.leftCols(i).noalias() -= k * hG;
+        }
+        Gw.col(i) = k;
+      }
+      // K = Gw L_R^{-1}
+      u.K = Lr.transpose().triangularView<Eigen::Upper>().solve(Gw.transpose()).transpose();
+      u.log_det_S = log_alpha + 2.0 * Lr.diagonal().array().log().sum();
+    } else {
+      Eigen::LLT<MatrixXd> y_llt(Y_);
+      if (y_llt.info() != Eigen::Success) {
+        throw NumericalError("information matrix not positive definite (Cholesky failed)");
+      }
+      const MatrixXd Z = y_llt.matrixL().solve(C.transpose());  // L_Y^{-1} C^T
+      u.S = R;
+      u.S.noalias() += Z.transpose() * Z;
+      Symmetrize(u.S);
+      Eigen::LLT<MatrixXd> s_llt(u.S);
+      if (s_llt.info() != Eigen::Success) {
+        throw NumericalError("innovation covariance S = C P C^T + R: not positive definite (Cholesky failed)");
+      }
+      u.log_det_S = 2.0 * s_llt.matrixLLT().diagonal().array().log().sum();
+      u.nis = s_llt.matrixL().solve(nu).squaredNorm();
+      const MatrixXd Ct = Lr.triangularView<Eigen::Lower>().solve(C);
+      Y_.noalias() += Ct.transpose() * Ct;
+      Symmetrize(Y_);
+      Eigen::LLT<MatrixXd> yp_llt(Y_);
+      if (yp_llt.info() != Eigen::Success) {
+        throw NumericalError("updated information matrix not positive definite (Cholesky failed)");
+      }
+      const MatrixXd KLr = yp_llt.solve(Ct.transpose());  // P+ C^T L_R^{-T}
+      u.K = Lr.transpose().triangularView<Eigen::Upper>().solve(KLr.transpose()).transpose();
+    }
+    u.dx.noalias() = u.K * nu;
+    return u;
+  }
+
+ private:
+  const MatrixXd& NoiseFactor(const ModelStep& s) {
+    if (&s != noise_step_ || noise_factor_.rows() != n_) {
+      noise_factor_ = PsdFactor(s.Q, "process noise covariance Q");
+      noise_step_ = &s;
+    }
+    return noise_factor_;
+  }
+
+  void PredictInformation(const ModelStep& s) {
+    const MatrixXd& A = s.A;
+    const MatrixXd I = MatrixXd::Identity(n_, n_);
+    Eigen::PartialPivLU<MatrixXd> a_lu(A);
+    const VectorXd pivots = a_lu.matrixLU().diagonal().cwiseAbs();
+    if (pivots.minCoeff() > 1e-12 * pivots.maxCoeff() && a_lu.rcond() > 1e-12) {
+      const MatrixXd Ainv = a_lu.inverse();
+      const MatrixXd M = Ainv.transpose() * Y_ * Ainv;
+      MatrixXd IMQ = I;
+      IMQ.noalias() += M * s.Q;
+      Y_ = Eigen::PartialPivLU<MatrixXd>(IMQ).solve(M);
+    } else {
+      Eigen::LLT<MatrixXd> q_llt(s.Q);
+      if (q_llt.info() != Eigen::Success) {
+        throw Error(
+            "information form: expected A_k invertible or Q_k positive definite (A_k is singular, Q_k is not "
+            "positive definite)");
+      }
+      const MatrixXd Qi = q_llt.solve(I);
+      const MatrixXd QiA = Qi * A;
+      MatrixXd W = Y_;
+      W.noalias() += A.transpose() * QiA;
+      Symmetrize(W);
+      Eigen::LLT<MatrixXd> w_llt(W);
+      if (w_llt.info() != Eigen::Success) throw NumericalError("Y + A^T Q^{-1} A not positive definite");
+      Y_ = Qi;
+      Y_.noalias() -= QiA * w_llt.solve(QiA.transpose());
+    }
+    Symmetrize(Y_);
+  }
+
+  FilterForm form_;
+  Index n_;
+  MatrixXd L_;  // square root: P = L L^T (n x n, lower triangular after the first step)
+  MatrixXd U_;  // UD
+  VectorXd d_;
+  MatrixXd Y_;  // information
+  const ModelStep* noise_step_ = nullptr;
+  MatrixXd noise_factor_;
+};
+
+void CheckDims(const Estimate& e, Index n, const char* what) {
+  RequireVector(std::string(what) + ".x", e.x, n);
+  RequireShape(std::string(what) + ".P", e.P, n, n);
+}
+
+std::vector<Index> ObservedEntries(const Eigen::Ref<const VectorXd>& y) {
+  std::vector<Index> observed;
+  for (Index i = 0; i < y.size(); ++i) {
+    if (std::isinf(y(i))) throw Error("y: expected finite entries or NaN (missing), got inf at " + std::to_string(i));
+    if (!std::isnan(y(i))) observed.push_back(i);
+  }
+  return observed;
+}
+
+// Update with the observed entries of y; fills r (except estimate.P).
+void UpdateObserved(FactoredCovariance& cov, const Estimate& prior, const ModelStep& s,
+                    const Eigen::Ref<const VectorXd>& y, UpdateResult* r) {
+  r->observed = ObservedEntries(y);
+  r->estimate.x = prior.x;
+  if (r->observed.empty()) {
+    r->gain.resize(s.A.rows(), 0);
+    return;
+  }
+  const bool all = static_cast<Index>(r->observed.size()) == s.C.rows();
+  const MatrixXd Co = all ? s.C : MatrixXd(s.C(r->observed, Eigen::all));
+  const MatrixXd Ro = all ? s.R : MatrixXd(s.R(r->observed, r->observed));
+  r->innovation = y(r->observed) - Co * prior.x;
+  MeasurementUpdate u = cov.Update(Co, Ro, r->innovation);
+  r->estimate.x += u.dx;
+  r->log_likelihood = -0.5 * (static_cast<double>(r->observed.size()) * kLog2Pi + u.log_det_S + u.nis);
+  r->innovation_cov = std::move(u.S);
+  r->gain = std::move(u.K);
+}
+
+}  // namespace
+
+Estimate FactoredPredict(const Estimate& e, const ModelStep& s, const KalmanFilterOptions& options) {
+  const Index n = s.A.rows();
+  CheckDims(e, n, "estimate");
+  FactoredCovariance cov(options.form, e.P);
+  cov.Predict(s);
+  Estimate out;
+  out.x.noalias() = s.A * e.x;
+  out.P = cov.Covariance();
+  return out;
+}
+
+UpdateResult FactoredUpdate(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const VectorXd>& y,
+                            const KalmanFilterOptions& options) {
+  const Index n = s.A.rows(), m = s.C.rows();
+  CheckDims(prior, n, "prior");
+  if (y.size() != m) {
+    throw Error("y: expected a measurement of length " + std::to_string(m) + ", got length " +
+                std::to_string(y.size()));
+  }
+  FactoredCovariance cov(options.form, prior.P);
+  UpdateResult r;
+  UpdateObserved(cov, prior, s, y, &r);
+  r.estimate.P = r.observed.empty() ? prior.P : cov.Covariance();
+  return r;
+}
+
+FilterRun FactoredRunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options) {
+  const Index n = model.state_dim(), m = model.meas_dim();
+  if (y.cols() != m) {
+    throw Error("y: expected " + std::to_string(m) + (m == 1 ? " column" : " columns") +
+                " (the model's measurement dimension), got " + std::to_string(y.rows()) + "x" +
+                std::to_string(y.cols()));
+  }
+  const int T = model.ResolveSteps(static_cast<int>(y.rows()), "y (rows)");
+  FilterRun run;
+  run.x_filt.resize(T + 1, n);
+  run.x_pred.resize(T + 1, n);
+  run.P_filt_diag.resize(T + 1, n);
+  run.P_pred_diag.resize(T + 1, n);
+  run.innovations = TimeSeries::Constant(T, m, std::numeric_limits<double>::quiet_NaN());
+  run.log_likelihood_terms = VectorXd::Zero(T);
+  run.num_observed.assign(static_cast<size_t>(T), 0);
+  Estimate e{model.m0(), model.P0()};
+  FactoredCovariance cov(options.filter.form, e.P);
+  HealthMonitor monitor(options.monitor_health);
+  run.x_filt.row(0) = e.x.transpose();
+  run.x_pred.row(0) = e.x.transpose();
+  run.P_filt_diag.row(0) = e.P.diagonal().transpose();
+  run.P_pred_diag.row(0) = e.P.diagonal().transpose();
+  if (options.store_covariances) {
+    run.P_filt.push_back(e.P);
+    run.P_pred.push_back(e.P);
+  }
+  for (int k = 1; k <= T; ++k) {
+    const StepPtr s = model.step(k);
+    Estimate pred;
+    pred.x.noalias() = s->A * e.x;
+    try {
+      cov.Predict(*s);
+      pred.P = cov.Covariance();
+    } catch (const NumericalError& err) {
+      throw NumericalError("step " + std::to_string(k) + ": " + FormName(options.filter.form) + ": " + err.what());
+    }
+    run.x_pred.row(k) = pred.x.transpose();
+    run.P_pred_diag.row(k) = pred.P.diagonal().transpose();
+    UpdateResult u;
+    try {
+      UpdateObserved(cov, pred, *s, y.row(k - 1).transpose(), &u);
+      u.estimate.P = u.observed.empty() ? pred.P : cov.Covariance();
+    } catch (const Error& err) {
+      std::string what = err.what();
+      if (what.rfind("y: ", 0) == 0) what = what.substr(3);
+      throw Error("y (row " + std::to_string(k - 1) + "): " + what);
+    } catch (const NumericalError& err) {
+      throw NumericalError("step " + std::to_string(k) + ": " + FormName(options.filter.form) + ": " + err.what());
+    }
+    for (size_t i = 0; i < u.observed.size(); ++i) run.innovations(k - 1, u.observed[i]) = u.innovation(i);
+    run.num_observed[static_cast<size_t>(k - 1)] = static_cast<int>(u.observed.size());
+    run.log_likelihood_terms(k - 1) = u.log_likelihood;
+    RequireFiniteStep(k, u.estimate.x, u.estimate.P, u.log_likelihood);
+    monitor.Observe(k, u.estimate.P, u.innovation, u.innovation_cov);
+    if (options.store_covariances) run.P_pred.push_back(std::move(pred.P));
+    e = std::move(u.estimate);
+    run.x_filt.row(k) = e.x.transpose();
+    run.P_filt_diag.row(k) = e.P.diagonal().transpose();
+    if (options.store_covariances) run.P_filt.push_back(e.P);
+    if (options.progress) options.progress(k, T);
+  }
+  run.log_likelihood = run.log_likelihood_terms.sum();
+  run.health = monitor.Finish();
+  return run;
+}
+
+KalmanSchedule FactoredKalmanSchedule(const Model& model, int steps, const KalmanFilterOptions& options) {
+  const int T = model.ResolveSteps(steps);
+  KalmanSchedule sch;
+  sch.filter_gain.resize(static_cast<size_t>(T) + 1);
+  sch.P_pred.push_back(model.P0());
+  sch.P_filt.push_back(model.P0());
+  FactoredCovariance cov(options.form, model.P0());
+  const Index n = model.state_dim();
+  for (int k = 1; k <= T; ++k) {
+    const StepPtr s = model.step(k);
+    try {
+      cov.Predict(*s);
+      sch.P_pred.push_back(cov.Covariance());
+      const MeasurementUpdate u = cov.Update(s->C, s->R, VectorXd::Zero(s->C.rows()));
+      sch.P_filt.push_back(cov.Covariance());
+      sch.filter_gain[static_cast<size_t>(k)] = u.K;
+    } catch (const NumericalError& err) {
+      throw NumericalError("step " + std::to_string(k) + ": " + FormName(options.form) + ": " + err.what());
+    }
+    RequireFiniteStep(k, VectorXd::Zero(n), sch.P_filt.back(), 0.0);
+    if (!sch.filter_gain[static_cast<size_t>(k)].allFinite()) {
+      throw NumericalError("step " + std::to_string(k) + ": filter gain not finite");
+    }
+  }
+  return sch;
+}
+
+HealthMonitor::HealthMonitor(bool enabled) { h_.monitored = enabled; }
+
+void HealthMonitor::Observe(int k, const Eigen::Ref<const MatrixXd>& P, const Eigen::Ref<const VectorXd>& nu,
+                            const Eigen::Ref<const MatrixXd>& S) {
+  if (!h_.monitored) return;
+  ++h_.steps;
+  const double scale = P.cwiseAbs().maxCoeff();
+  if (scale > 0.0) h_.max_asymmetry = std::max(h_.max_asymmetry, (P - P.transpose()).cwiseAbs().maxCoeff() / scale);
+  const MatrixXd Ps = 0.5 * (P + P.transpose());
+  Eigen::SelfAdjointEigenSolver<MatrixXd> eig(Ps, Eigen::EigenvaluesOnly);
+  const double lmin = eig.eigenvalues().size() > 0 ? eig.eigenvalues()(0) : 0.0;
+  if (lmin < h_.min_eigenvalue) {
+    h_.min_eigenvalue = lmin;
+    h_.min_eigenvalue_step = k;
+  }
+  Eigen::LLT<MatrixXd> llt(Ps);
+  if (llt.info() != Eigen::Success) {
+    if (h_.cholesky_failures == 0) h_.first_cholesky_failure = k;
+    ++h_.cholesky_failures;
+  }
+  if (nu.size() > 0) {
+    Eigen::LLT<MatrixXd> s_llt(S);
+    if (s_llt.info() == Eigen::Success) {
+      h_.nis_sum += s_llt.matrixL().solve(nu).squaredNorm();
+      h_.nis_dof += nu.size();
+    }
+  }
+}
+
+FilterHealth HealthMonitor::Finish() const {
+  FilterHealth h = h_;
+  if (h.monitored && h.nis_dof > 0) {
+    h.nis_mean = h.nis_sum / static_cast<double>(h.nis_dof);
+    const double half = 2.5758293035489 * std::sqrt(2.0 / static_cast<double>(h.nis_dof));
+    h.nis_lower = 1.0 - half;
+    h.nis_upper = 1.0 + half;
+    h.nis_consistent = h.nis_mean >= h.nis_lower && h.nis_mean <= h.nis_upper;
+  }
+  return h;
+}
+
+void RequireFiniteStep(int k, const Eigen::Ref<const VectorXd>& x, const Eigen::Ref<const MatrixXd>& P,
+                       double log_likelihood) {
+  if (!x.allFinite()) throw NumericalError("step " + std::to_string(k) + ": estimate x_{k|k} is not finite");
+  if (!P.diagonal().allFinite() || !P.allFinite()) {
+    throw NumericalError("step " + std::to_string(k) + ": covariance P_{k|k} is not finite");
+  }
+  if (!std::isfinite(log_likelihood)) {
+    throw NumericalError("step " + std::to_string(k) + ": log-likelihood term is not finite");
+  }
+}
+
+}  // namespace kfx::detail

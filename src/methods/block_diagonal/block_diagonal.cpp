@@ -1,0 +1,1194 @@
+// The coupled-subsystem model and the one-step covariance updates of the block-diagonal, banded and
+// full filters (004 eqs. (3)-(17)). Steady state, Prop. 2.2 and the identical-subsystem reduction are
+// in block_diagonal_analysis.cpp.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <type_traits>
+
+#include "kfx/block_diagonal.hpp"
+#include "kfx/error.hpp"
+#include "kfx/simulation.hpp"
+#include "kfx/validation.hpp"
+
+#include "methods/block_diagonal/block_diagonal_internal.hpp"  // the range-based passes defined at the end of this file
+#include "methods/block_diagonal/block_diagonal_simd.hpp"
+
+namespace kfx {
+
+namespace detail {
+namespace {
+std::atomic<bool> specialized_kernels{true};
+}  // namespace
+bool SpecializedKernels() { return specialized_kernels.load(std::memory_order_relaxed); }
+void SetBlockDiagonalSpecializedKernels(bool enabled) { specialized_kernels.store(enabled); }
+}  // namespace detail
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+// Small per-block matrices live on the stack (no allocation per block) up to 8 x 8.
+constexpr int kMaxSmall = 8;
+using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxSmall, kMaxSmall>;
+// Subsystems per chunk: the chunk's r-wide temporaries stay in cache (about 8 nb r doubles).
+constexpr Index kChunk = 256;
+
+std::string Dims(Index a, Index b) { return std::to_string(a) + "x" + std::to_string(b); }
+
+void RequireStepShapes(const CoupledStep& s, const std::string& label) {
+  const Index c = s.F.rows();
+  if (c == 0 || s.F.cols() % c != 0) {
+    throw Error(label + "F: expected c x (n c) packed blocks with c >= 1, got " + Dims(s.F.rows(), s.F.cols()));
+  }
+  const Index n = s.F.cols() / c, d = s.H.rows(), r = s.G.cols();
+  RequireShape(label + "H", s.H, d, n * c);
+  if (d == 0) throw Error(label + "H: expected d >= 1 measurement rows per subsystem, got 0");
+  RequireShape(label + "V", s.V, c, n * c);
+  RequireShape(label + "R", s.R, d, n * d);
+  RequireShape(label + "G", s.G, n * c, r);
+  RequireShape(label + "U", s.U, r, r);
+}
+
+void RequirePackedCovariance(const std::string& name, const MatrixXd& P, Index c, Index n) {
+  RequireShape(name, P, c, n * c);
+}
+
+// Raw access to block i of a packed matrix with `rows` rows and blocks `cols` wide.
+inline Eigen::Map<const MatrixXd> BlockOf(const MatrixXd& m, Index i, Index cols) {
+  return Eigen::Map<const MatrixXd>(m.data() + i * cols * m.rows(), m.rows(), cols);
+}
+inline Eigen::Map<MatrixXd> BlockOf(MatrixXd& m, Index i, Index cols) {
+  return Eigen::Map<MatrixXd>(m.data() + i * cols * m.rows(), m.rows(), cols);
+}
+
+// dst(i a + p, j) = sum_q blocks_i(p, q) src(i b + q, j) for subsystems [i0, i0 + nb): a column
+// sweep (contiguous in both) of blockdiag(blocks) * src. blocks is packed a x (n b). A, B > 0 fix
+// the block shape at compile time (the common small cases), 0 takes it from the arguments.
+template <int A, int B>
+void BlockRowsTimesImpl(const double* bl, Index a_rt, Index b_rt, Index nb, const double* src, Index src_ld,
+                        double* dst, Index dst_ld, Index cols) {
+  const Index a = A > 0 ? A : a_rt, b = B > 0 ? B : b_rt;
+  for (Index j = 0; j < cols; ++j) {
+    const double* s = src + j * src_ld;
+    double* t = dst + j * dst_ld;
+    for (Index i = 0; i < nb; ++i) {
+      const double* m = bl + i * a * b;  // column-major a x b
+      const double* si = s + i * b;
+      double* ti = t + i * a;
+      for (Index p = 0; p < a; ++p) {
+        double acc = 0.0;
+        for (Index q = 0; q < b; ++q) acc += m[q * a + p] * si[q];
+        ti[p] = acc;
+      }
+    }
+  }
+}
+
+// dst = blockdiag(blocks_i) src for nb blocks a x b stored contiguously (column-major) from bl.
+void BlockRowsTimesRaw(const double* bl, Index a, Index b, Index nb, const double* src, Index src_ld, double* dst,
+                       Index dst_ld, Index cols) {
+  if (detail::SpecializedKernels()) {
+    if (a == 1 && b == 1) return BlockRowsTimesImpl<1, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+    if (a == 1 && b == 2) return BlockRowsTimesImpl<1, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+    if (a == 2 && b == 1) return BlockRowsTimesImpl<2, 1>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+    if (a == 2 && b == 2) return BlockRowsTimesImpl<2, 2>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+  }
+  BlockRowsTimesImpl<0, 0>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
+}
+
+void BlockRowsTimes(const MatrixXd& blocks, Index b, Index i0, Index nb, const double* src, Index src_ld, double* dst,
+                    Index dst_ld, Index cols) {
+  const Index a = blocks.rows();
+  BlockRowsTimesRaw(blocks.data() + i0 * a * b, a, b, nb, src, src_ld, dst, dst_ld, cols);
+}
+
+// Block i of a packed matrix as the (fixed-size when possible) type Mat, and back.
+template <typename Mat>
+Mat LoadBlock(const MatrixXd& m, Index i, Index cols) {
+  if constexpr (Mat::RowsAtCompileTime != Eigen::Dynamic && Mat::ColsAtCompileTime != Eigen::Dynamic) {
+    constexpr int R = Mat::RowsAtCompileTime, C = Mat::ColsAtCompileTime;
+    return Eigen::Map<const Eigen::Matrix<double, R, C>>(m.data() + i * cols * m.rows());  // column-major
+  } else {
+    return BlockOf(m, i, cols);
+  }
+}
+template <typename Expr>
+void StoreBlock(const Expr& e, MatrixXd& m, Index i, Index cols) {
+  constexpr int R = Expr::RowsAtCompileTime, C = Expr::ColsAtCompileTime;
+  if constexpr (R != Eigen::Dynamic && C != Eigen::Dynamic) {
+    Eigen::Map<Eigen::Matrix<double, R, C>>(m.data() + i * cols * m.rows()) = e;  // default: column-major storage
+  } else {
+    BlockOf(m, i, cols) = e;
+  }
+}
+
+// The per-subsystem Kalman step shared by the block-diagonal filter (Q = V: eqs. (9), (14), (15))
+// and the banded filter (Q = D{V + G U G^T}) for subsystems [i0, i1): L = F P F^T + Q,
+// M = H L H^T + R = R_c^T R_c (Cholesky), J = L H^T M^{-1} (the banded gain), P_out = L - J H L,
+// and, when asked for, R_c^{-1} (d x d upper triangular, so M^{-1} = R_c^{-1} R_c^{-T}) into
+// rinv[(i - i0) d^2 ...]. MatC, MatD, MatDC are c x c, d x d, d x c types: fixed-size for the
+// common shapes, stack-allocated dynamic for c, d <= 8, heap-allocated beyond.
+template <typename MatC, typename MatD, typename MatDC>
+void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Q, Index i0, Index i1, double* rinv,
+                          MatrixXd& J, MatrixXd& P_out) {
+  const Index c = s.c(), d = s.d();
+  for (Index i = i0; i < i1; ++i) {
+    const MatC F = LoadBlock<MatC>(s.F, i, c);
+    const MatDC H = LoadBlock<MatDC>(s.H, i, c);
+    MatC L = F.lazyProduct(LoadBlock<MatC>(Pp, i, c)).lazyProduct(F.transpose()) + LoadBlock<MatC>(Q, i, c);
+    L = (0.5 * (L + L.transpose())).eval();
+    const MatDC HL = H * L;
+    const MatD M = HL * H.transpose() + LoadBlock<MatD>(s.R, i, d);
+    MatDC Jt;  // M^{-1} H L = J^T
+    if constexpr (MatD::RowsAtCompileTime == 1) {
+      const double m = M(0, 0);
+      if (!(m > 0.0) || !std::isfinite(m)) {
+        throw NumericalError("M (block " + std::to_string(i) + "): H L H^T + R is not positive");
+      }
+      Jt = HL / m;
+      if (rinv) rinv[i - i0] = 1.0 / std::sqrt(m);
+      StoreBlock(Jt.transpose(), J, i, d);
+      const MatC A = L - Jt.transpose() * HL;
+      StoreBlock(0.5 * (A + A.transpose()), P_out, i, c);
+      continue;
+    }
+    const Eigen::LLT<MatD> llt(M);
+    if (llt.info() != Eigen::Success) {
+      throw NumericalError("M (block " + std::to_string(i) + "): H L H^T + R is not positive definite");
+    }
+    if constexpr (MatD::RowsAtCompileTime != Eigen::Dynamic) {
+      // Fixed d <= 4: closed-form inverse of the Cholesky factor (no BLAS call per subsystem; with
+      // EIGEN_USE_BLAS every triangular solve would be a DTRSM call with its locking overhead).
+      const MatD Rinv = MatD(llt.matrixL()).inverse().transpose();  // R_c^{-1}, M = R_c^T R_c
+      Jt.noalias() = Rinv * (Rinv.transpose() * HL);
+      if (rinv) Eigen::Map<MatD>(rinv + (i - i0) * d * d) = Rinv;
+    } else {
+      Jt = llt.solve(HL);
+      if (rinv) {
+        Eigen::Map<MatrixXd>(rinv + (i - i0) * d * d, d, d) = llt.matrixU().solve(MatD::Identity(d, d));
+      }
+    }
+    StoreBlock(Jt.transpose(), J, i, d);
+    const MatC A = L - Jt.transpose() * HL;
+    StoreBlock(0.5 * (A + A.transpose()), P_out, i, c);
+  }
+}
+
+// The same step for d = 1 and c = C fixed, as plain scalar loops (about twice faster per subsystem
+// than the fixed-size Eigen expressions above at c = 2, which the compiler did not fully inline).
+template <int C>
+void ScalarMeasurementKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Q, Index i0, Index i1,
+                                  double* rinv, MatrixXd& J, MatrixXd& P_out) {
+  for (Index i = i0; i < i1; ++i) {
+    const double* f = s.F.data() + i * C * C;
+    const double* p = Pp.data() + i * C * C;
+    const double* q = Q.data() + i * C * C;
+    const double* h = s.H.data() + i * C;
+    double fp[C * C], L[C * C], hl[C], jt[C];
+    for (int b = 0; b < C; ++b)
+      for (int a = 0; a < C; ++a) {
+        double acc = 0.0;
+        for (int t = 0; t < C; ++t) acc += f[t * C + a] * p[b * C + t];
+        fp[b * C + a] = acc;  // (F P)(a, b)
+      }
+    for (int b = 0; b < C; ++b)
+      for (int a = 0; a < C; ++a) {
+        double acc = 0.0;
+        for (int t = 0; t < C; ++t) acc += fp[t * C + a] * f[t * C + b];
+        L[b * C + a] = acc + q[b * C + a];  // (F P F^T + Q)(a, b)
+      }
+    for (int b = 0; b < C; ++b)
+      for (int a = b + 1; a < C; ++a) L[b * C + a] = L[a * C + b] = 0.5 * (L[b * C + a] + L[a * C + b]);
+    double m = s.R.data()[i];
+    for (int b = 0; b < C; ++b) {
+      double acc = 0.0;
+      for (int a = 0; a < C; ++a) acc += h[a] * L[b * C + a];
+      hl[b] = acc;  // (H L)(b)
+      m += acc * h[b];
+    }
+    if (!(m > 0.0) || !std::isfinite(m)) {
+      throw NumericalError("M (block " + std::to_string(i) + "): H L H^T + R is not positive");
+    }
+    for (int b = 0; b < C; ++b) jt[b] = hl[b] / m;
+    if (rinv) rinv[i - i0] = 1.0 / std::sqrt(m);
+    double* j = J.data() + i * C;
+    double* po = P_out.data() + i * C * C;
+    for (int b = 0; b < C; ++b) {
+      j[b] = jt[b];
+      for (int a = 0; a <= b; ++a) {
+        po[b * C + a] = po[a * C + b] =
+            0.5 * ((L[b * C + a] - jt[a] * hl[b]) + (L[a * C + b] - jt[b] * hl[a]));  // L - J H L, symmetrized
+      }
+    }
+  }
+}
+
+void SubsystemKalmanSteps(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Q, Index i0, Index i1, double* rinv,
+                          MatrixXd& J, MatrixXd& P_out) {
+  using Eigen::Matrix;
+  const Index c = s.c(), d = s.d();
+  if (!detail::SpecializedKernels()) {
+    if (c <= kMaxSmall && d <= kMaxSmall) {
+      SubsystemKalmanSteps<Small, Small, Small>(s, Pp, Q, i0, i1, rinv, J, P_out);
+    } else {
+      SubsystemKalmanSteps<MatrixXd, MatrixXd, MatrixXd>(s, Pp, Q, i0, i1, rinv, J, P_out);
+    }
+  } else if (c == 1 && d == 1) {
+    ScalarMeasurementKalmanSteps<1>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else if (c == 2 && d == 1) {
+    ScalarMeasurementKalmanSteps<2>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else if (c == 3 && d == 1) {
+    ScalarMeasurementKalmanSteps<3>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else if (c == 4 && d == 1) {
+    ScalarMeasurementKalmanSteps<4>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else if (c == 2 && d == 2) {
+    SubsystemKalmanSteps<Eigen::Matrix2d, Eigen::Matrix2d, Eigen::Matrix2d>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else if (c <= kMaxSmall && d <= kMaxSmall) {
+    SubsystemKalmanSteps<Small, Small, Small>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  } else {
+    SubsystemKalmanSteps<MatrixXd, MatrixXd, MatrixXd>(s, Pp, Q, i0, i1, rinv, J, P_out);
+  }
+}
+
+// B_i = R_c^{-T} H_i (d x c) for nb subsystems, packed contiguously, from H_i (d x c, packed from h) and
+// the Cholesky inverses R_c^{-1} (d x d, column-major, as SubsystemKalmanSteps writes them). Z_i =
+// B_i G_i then gives Z^T Z = G^T H^T M^{-1} H G (eq. (16)), M = R_c^T R_c.
+template <int C, int D>
+void WhitenedMeasurementImpl(Index c_rt, Index d_rt, Index nb, const double* h, const double* rinv, double* B) {
+  const Index c = C > 0 ? C : c_rt, d = D > 0 ? D : d_rt;
+  if (d == 1) {
+    for (Index l = 0; l < nb; ++l)
+      for (Index q = 0; q < c; ++q) B[l * c + q] = rinv[l] * h[l * c + q];
+    return;
+  }
+  for (Index l = 0; l < nb; ++l) {
+    const double* ri = rinv + l * d * d;
+    const double* hl = h + l * d * c;
+    double* bl = B + l * d * c;
+    for (Index q = 0; q < c; ++q)
+      for (Index p = 0; p < d; ++p) {
+        double acc = 0.0;
+        for (Index a = 0; a <= p; ++a) acc += ri[p * d + a] * hl[q * d + a];  // (R_c^{-1})_{ap}, upper triangular
+        bl[q * d + p] = acc;
+      }
+  }
+}
+
+// A_i = J_i H_i - I (c x c) for nb subsystems, packed contiguously: E_i = B_i - G_i = A_i G_i (eq. (10)
+// minus G), so E never has to be formed or stored to apply it.
+template <int C, int D>
+void GainResidualImpl(Index c_rt, Index d_rt, Index nb, const double* j, const double* h, double* A) {
+  const Index c = C > 0 ? C : c_rt, d = D > 0 ? D : d_rt;
+  for (Index l = 0; l < nb; ++l) {
+    const double* jl = j + l * c * d;
+    const double* hl = h + l * d * c;
+    double* al = A + l * c * c;
+    for (Index q = 0; q < c; ++q)
+      for (Index p = 0; p < c; ++p) {
+        double acc = p == q ? -1.0 : 0.0;
+        for (Index a = 0; a < d; ++a) acc += jl[a * c + p] * hl[q * d + a];
+        al[q * c + p] = acc;
+      }
+  }
+}
+
+// The fixed-shape instances for the common (c, d) in {1, 2} x {1, 2}, else the generic one.
+template <typename Body>
+void DispatchSmall(Index c, Index d, Body&& body) {
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  using Gen = std::integral_constant<int, 0>;
+  if (!detail::SpecializedKernels()) return body(Gen{}, Gen{});
+  if (c == 2 && d == 1) return body(Two{}, One{});
+  if (c == 1 && d == 1) return body(One{}, One{});
+  if (c == 2 && d == 2) return body(Two{}, Two{});
+  if (c == 1 && d == 2) return body(One{}, Two{});
+  body(Gen{}, Gen{});
+}
+
+void WhitenedMeasurement(Index c, Index d, Index nb, const double* h, const double* rinv, double* B) {
+  DispatchSmall(c, d, [&](auto C, auto D) {
+    WhitenedMeasurementImpl<decltype(C)::value, decltype(D)::value>(c, d, nb, h, rinv, B);
+  });
+}
+
+void GainResidual(Index c, Index d, Index nb, const double* j, const double* h, double* A) {
+  DispatchSmall(c, d,
+                [&](auto C, auto D) { GainResidualImpl<decltype(C)::value, decltype(D)::value>(c, d, nb, j, h, A); });
+}
+
+// Gram blocks of W ((nb c) x k, column-major, leading dimension ldw): T_i = W_i W_i^T with W_i rows
+// [i c, (i + 1) c). T is c x (nb c) scratch: T_i(a, b), a >= b, lands at T[(a - b) nb c + i c + b],
+// the sum over columns t of w_j w_{j + delta} (j = i c + b, delta = a - b). For fixed C these sums
+// run over blocks of 8 consecutive rows held in registers across all k columns (the loops vectorize;
+// the few products that straddle two subsystems are not used); the generic version loops per
+// subsystem.
+template <int C>
+void GramBlocksImpl(Index c_rt, Index k, Index nb, const double* W, Index ldw, double* T) {
+  static_assert(C <= 4, "fixed-size Gram kernel for c <= 4");
+  const Index c = C > 0 ? C : c_rt, m = nb * c;
+  Index j0 = 0;
+  if constexpr (C > 0) {
+    constexpr Index kB = 8;
+    using Rows = Eigen::Array<double, kB, 1>;  // fixed size: Eigen unrolls it into register packets
+    for (; j0 + kB + C - 1 <= m; j0 += kB) {
+      // Named accumulators (not an array) so that they stay in registers.
+      Rows acc0 = Rows::Zero(), acc1 = Rows::Zero(), acc2 = Rows::Zero(), acc3 = Rows::Zero();
+      for (Index t = 0; t < k; ++t) {
+        const double* w = W + t * ldw + j0;
+        const Rows w0 = Eigen::Map<const Rows>(w);
+        acc0 += w0 * w0;
+        if constexpr (C > 1) acc1 += w0 * Eigen::Map<const Rows>(w + 1);
+        if constexpr (C > 2) acc2 += w0 * Eigen::Map<const Rows>(w + 2);
+        if constexpr (C > 3) acc3 += w0 * Eigen::Map<const Rows>(w + 3);
+      }
+      Eigen::Map<Rows>(T + j0) = acc0;
+      if constexpr (C > 1) Eigen::Map<Rows>(T + m + j0) = acc1;
+      if constexpr (C > 2) Eigen::Map<Rows>(T + 2 * m + j0) = acc2;
+      if constexpr (C > 3) Eigen::Map<Rows>(T + 3 * m + j0) = acc3;
+    }
+  }
+  for (Index j = j0; j < m; ++j) {  // the rest (all of it in the generic version)
+    const Index b = j % c;
+    for (Index delta = 0; b + delta < c; ++delta) {
+      double acc = 0.0;
+      for (Index t = 0; t < k; ++t) acc += W[t * ldw + j] * W[t * ldw + j + delta];
+      T[delta * m + j] = acc;
+    }
+  }
+}
+
+// P_i += A_i T_i A_i^T for nb subsystems, with T_i from GramBlocks (structure of arrays) and A_i packed
+// c x c; the lower triangle is computed and mirrored, so P stays exactly symmetric.
+template <int C>
+void CongruenceSoAImpl(Index c_rt, Index nb, const double* A, const double* T, double* P) {
+  const Index c = C > 0 ? C : c_rt;
+  double stack_buf[C > 0 ? C * C : 1];
+  std::vector<double> heap_buf(C > 0 ? 0 : c * c);
+  double* tl = C > 0 ? stack_buf : heap_buf.data();
+  for (Index l = 0; l < nb; ++l) {
+    const double* a = A + l * c * c;
+    for (Index i = 0; i < c; ++i)
+      for (Index j = 0; j <= i; ++j) tl[j * c + i] = tl[i * c + j] = T[(i - j) * nb * c + l * c + j];
+    double* p = P + l * c * c;
+    for (Index i = 0; i < c; ++i)
+      for (Index j = 0; j <= i; ++j) {
+        double acc = 0.0;
+        for (Index q = 0; q < c; ++q) {
+          double at = 0.0;  // (A_i T_i)(i, q)
+          for (Index s = 0; s < c; ++s) at += a[s * c + i] * tl[q * c + s];
+          acc += at * a[q * c + j];
+        }
+        p[j * c + i] += acc;
+        if (j != i) p[i * c + j] = p[j * c + i];
+      }
+  }
+}
+
+void GramBlocks(Index c, Index k, Index nb, const double* W, Index ldw, double* T) {
+  if (detail::SpecializedKernels()) {
+    if (c == 1) return GramBlocksImpl<1>(c, k, nb, W, ldw, T);
+    if (c == 2) return GramBlocksImpl<2>(c, k, nb, W, ldw, T);
+    if (c == 3) return GramBlocksImpl<3>(c, k, nb, W, ldw, T);
+    if (c == 4) return GramBlocksImpl<4>(c, k, nb, W, ldw, T);
+  }
+  GramBlocksImpl<0>(c, k, nb, W, ldw, T);
+}
+
+void CongruenceSoA(Index c, Index nb, const double* A, const double* T, double* P) {
+  if (detail::SpecializedKernels()) {
+    if (c == 1) return CongruenceSoAImpl<1>(c, nb, A, T, P);
+    if (c == 2) return CongruenceSoAImpl<2>(c, nb, A, T, P);
+    if (c == 3) return CongruenceSoAImpl<3>(c, nb, A, T, P);
+    if (c == 4) return CongruenceSoAImpl<4>(c, nb, A, T, P);
+  }
+  CongruenceSoAImpl<0>(c, nb, A, T, P);
+}
+
+}  // namespace
+
+// ---- Model -----------------------------------------------------------------------------------------
+
+CoupledStep MakeIdenticalCoupledStep(Index n, const MatrixXd& F, const MatrixXd& H, const MatrixXd& V,
+                                     const MatrixXd& R, const MatrixXd& g, const MatrixXd& U) {
+  if (n < 1) throw Error("n: expected at least 1 subsystem, got " + std::to_string(n));
+  RequireSquare("F", F);
+  const Index c = F.rows();
+  RequireShape("H", H, -1, c);
+  RequireShape("V", V, c, c);
+  RequireShape("R", R, H.rows(), H.rows());
+  RequireShape("g", g, c, -1);
+  RequireShape("U", U, g.cols(), g.cols());
+  CoupledStep s;
+  s.F = F.replicate(1, n);
+  s.H = H.replicate(1, n);
+  s.V = V.replicate(1, n);
+  s.R = R.replicate(1, n);
+  s.G = g.replicate(n, 1);
+  s.U = U;
+  return s;
+}
+
+void ValidateCoupledStep(const CoupledStep& s, Index n, Index c, Index d, Index r, const std::string& label) {
+  RequireShape(label + "F", s.F, c, n * c);
+  RequireShape(label + "H", s.H, d, n * c);
+  RequireShape(label + "V", s.V, c, n * c);
+  RequireShape(label + "R", s.R, d, n * d);
+  RequireShape(label + "G", s.G, n * c, r);
+  RequireShape(label + "U", s.U, r, r);
+  RequireFinite(label + "F", s.F);
+  RequireFinite(label + "H", s.H);
+  RequireFinite(label + "G", s.G);
+  RequirePositiveSemidefinite(label + "U", s.U);
+  for (Index i = 0; i < n; ++i) {
+    const std::string b = " (block " + std::to_string(i) + ")";
+    RequirePositiveSemidefinite(label + "V" + b, s.V.middleCols(i * c, c));
+    RequirePositiveDefinite(label + "R" + b, s.R.middleCols(i * d, d));
+  }
+}
+
+CoupledSystem::CoupledSystem(CoupledStep step, VectorXd m0, MatrixXd P0_blocks)
+    : kind_(detail::ScheduleKind::kInvariant), m0_(std::move(m0)), P0_(std::move(P0_blocks)) {
+  RequireStepShapes(step, "");
+  n_ = step.n(), c_ = step.c(), d_ = step.d(), r_ = step.r();
+  ValidateCoupledStep(step, n_, c_, d_, r_);
+  steps_.push_back(std::make_shared<const CoupledStep>(std::move(step)));
+  ValidatePrior();
+}
+
+CoupledSystem::CoupledSystem(std::vector<CoupledStep> steps, VectorXd m0, MatrixXd P0_blocks)
+    : kind_(detail::ScheduleKind::kSequence), m0_(std::move(m0)), P0_(std::move(P0_blocks)) {
+  if (steps.empty()) throw Error("steps: expected at least one step");
+  RequireStepShapes(steps[0], "step 1: ");
+  n_ = steps[0].n(), c_ = steps[0].c(), d_ = steps[0].d(), r_ = steps[0].r();
+  for (size_t k = 0; k < steps.size(); ++k) {
+    ValidateCoupledStep(steps[k], n_, c_, d_, r_, "step " + std::to_string(k + 1) + ": ");
+    steps_.push_back(std::make_shared<const CoupledStep>(std::move(steps[k])));
+  }
+  horizon_ = static_cast<int>(steps_.size());
+  ValidatePrior();
+}
+
+CoupledSystem::CoupledSystem(Index n, Index c, Index d, Index r, StepFunction function, VectorXd m0, MatrixXd P0_blocks,
+                             int horizon)
+    : kind_(detail::ScheduleKind::kFunction),
+      n_(n),
+      c_(c),
+      d_(d),
+      r_(r),
+      horizon_(horizon),
+      function_(std::move(function)),
+      m0_(std::move(m0)),
+      P0_(std::move(P0_blocks)) {
+  if (n < 1 || c < 1 || d < 1 || r < 0) {
+    throw Error("n, c, d, r: expected n, c, d >= 1 and r >= 0, got " + std::to_string(n) + ", " + std::to_string(c) +
+                ", " + std::to_string(d) + ", " + std::to_string(r));
+  }
+  if (!function_) throw Error("function: expected a step callback");
+  ValidatePrior();
+}
+
+void CoupledSystem::ValidatePrior() const {
+  RequireVector("m0", m0_, n_ * c_);
+  RequireFinite("m0", m0_);
+  RequirePackedCovariance("P0", P0_, c_, n_);
+  for (Index i = 0; i < n_; ++i) {
+    RequirePositiveSemidefinite("P0 (block " + std::to_string(i) + ")", P0_.middleCols(i * c_, c_));
+  }
+}
+
+std::shared_ptr<const CoupledStep> CoupledSystem::step(int k) const {
+  return detail::StepAt<CoupledStep>(
+      k, kind_, horizon_, steps_, function_,
+      [this](const CoupledStep& s, const std::string& label) { ValidateCoupledStep(s, n_, c_, d_, r_, label); },
+      "step");
+}
+
+int CoupledSystem::ResolveSteps(int steps) const {
+  if (steps < 0) {
+    if (horizon_ < 0) throw Error("steps: expected a number of steps (the system has no horizon)");
+    return horizon_;
+  }
+  if (horizon_ >= 0 && steps > horizon_) {
+    throw Error("steps: expected at most " + std::to_string(horizon_) + " steps (the system's horizon), got " +
+                std::to_string(steps));
+  }
+  return steps;
+}
+
+// ---- Packed helpers --------------------------------------------------------------------------------
+
+MatrixXd BlockDiagonalToDense(const MatrixXd& blocks, Index block_cols) {
+  if (block_cols < 1 || blocks.cols() % block_cols != 0) {
+    throw Error("blocks: expected a x (n b) packed blocks with b = " + std::to_string(block_cols) + ", got " +
+                Dims(blocks.rows(), blocks.cols()));
+  }
+  const Index a = blocks.rows(), n = blocks.cols() / block_cols;
+  MatrixXd dense = MatrixXd::Zero(n * a, n * block_cols);
+  for (Index i = 0; i < n; ++i) {
+    dense.block(i * a, i * block_cols, a, block_cols) = blocks.middleCols(i * block_cols, block_cols);
+  }
+  return dense;
+}
+
+MatrixXd DiagonalBlocks(const MatrixXd& M, Index a) {
+  if (a < 1 || M.rows() != M.cols() || M.rows() % a != 0) {
+    throw Error("M: expected a square matrix of size a multiple of " + std::to_string(a) + ", got " +
+                Dims(M.rows(), M.cols()));
+  }
+  const Index n = M.rows() / a;
+  MatrixXd blocks(a, n * a);
+  for (Index i = 0; i < n; ++i) blocks.middleCols(i * a, a) = M.block(i * a, i * a, a, a);
+  return blocks;
+}
+
+VectorXd BlockDiagonalApply(const MatrixXd& blocks, Index block_cols, const VectorXd& x) {
+  if (block_cols < 1 || blocks.cols() % block_cols != 0) {
+    throw Error("blocks: expected packed blocks " + std::to_string(block_cols) + " wide, got " +
+                Dims(blocks.rows(), blocks.cols()));
+  }
+  RequireVector("x", x, blocks.cols());
+  const Index n = blocks.cols() / block_cols;
+  VectorXd y(n * blocks.rows());
+  BlockRowsTimes(blocks, block_cols, 0, n, x.data(), x.size(), y.data(), y.size(), 1);
+  return y;
+}
+
+ModelStep ToDenseStep(const CoupledStep& s) {
+  RequireStepShapes(s, "");
+  const Index c = s.c();
+  MatrixXd Q = BlockDiagonalToDense(s.V, c);
+  if (s.r() > 0) Q.noalias() += s.G * s.U * s.G.transpose();
+  Symmetrize(Q);
+  return MakeStep(BlockDiagonalToDense(s.F, c), BlockDiagonalToDense(s.H, c), std::move(Q),
+                  BlockDiagonalToDense(s.R, s.d()));
+}
+
+Model ToDenseModel(const CoupledSystem& system) {
+  MatrixXd P0 = BlockDiagonalToDense(system.P0_blocks(), system.c());
+  if (system.time_invariant()) return Model(ToDenseStep(*system.step(1)), system.m0(), std::move(P0));
+  return Model(
+      system.state_dim(), system.meas_dim(), [system](int k) { return ToDenseStep(*system.step(k)); }, system.m0(),
+      std::move(P0), system.horizon());
+}
+
+// ---- The block-diagonal step, eqs. (8)-(17) --------------------------------------------------------
+
+VectorXd BlockDiagonalGain::Apply(const VectorXd& innovation) const {
+  const Index c = J.rows(), nd = Yt.cols();
+  RequireVector("innovation", innovation, nd);
+  VectorXd out(Et.cols());
+  const Index n = Et.cols() / std::max<Index>(c, 1);
+  BlockRowsTimes(J, n > 0 ? nd / n : 0, 0, n, innovation.data(), nd, out.data(), out.size(), 1);
+  if (Et.rows() > 0) out.noalias() -= Et.transpose() * (C1 * (Yt * innovation));
+  return out;
+}
+
+VectorXd BlockDiagonalGain::CouplingMean(const VectorXd& innovation) const {
+  RequireVector("innovation", innovation, Yt.cols());
+  return C1 * (Yt * innovation);
+}
+
+MatrixXd BlockDiagonalGain::ToDense() const {
+  const Index c = J.rows(), n = Et.cols() / std::max<Index>(c, 1);
+  const Index d = n > 0 ? Yt.cols() / n : 0;
+  MatrixXd K = BlockDiagonalToDense(J, d);
+  if (Et.rows() > 0) K.noalias() -= Et.transpose() * C1 * Yt;
+  return K;
+}
+
+BlockDiagonalCovarianceStep BlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp) {
+  BlockDiagonalCovarianceStep out;
+  BlockDiagonalCovarianceUpdate(s, Pp, &out);
+  return out;
+}
+
+namespace {
+
+// The estimate update folded into the covariance passes (the running filter): on entry x = F x_prev
+// and nu is the innovation (length n d); on exit x = F x_prev + K nu (eq. (7)) and mu_u = C_1 Y^T nu.
+struct EstimateFold {
+  const double* nu;
+  double* x;
+  VectorXd* mu_u;
+  const detail::PredictFold* predict;  // when given, pass 1 forms x = F x_prev and nu first
+};
+
+// Eqs. (8)-(17) over all subsystems, through the range passes below (the distributed filter runs the
+// same passes per slice): BlockDiagonalCovarianceUpdate stores the gain (E^T, Y^T: O(n r) doubles);
+// CoupledFilter does not, and has K nu applied inside the passes. Neither pass reads E^T or Y^T (both
+// work from G in place), so without the stored gain each subsystem's G rows are streamed twice per
+// step and nothing r-wide is written: the step stays linear in n once the arrays leave the cache.
+// The scratch is per chunk (O(256 r) doubles) and kept per thread, so steps allocate nothing.
+void BlockDiagonalUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep& out, bool store_gain,
+                         const EstimateFold* est) {
+  const Index n = s.n(), r = s.r();
+  thread_local detail::BlockDiagonalWorkspace ws;
+  detail::BlockDiagonalResize(s, store_gain, &out);
+  MatrixXd N = MatrixXd::Zero(r, r);
+  VectorXd ytnu = VectorXd::Zero(est ? r : 0);
+  detail::BlockDiagonalPass1(s, Pp, 0, n, est ? est->nu : nullptr, &ws, &out, &N, est ? &ytnu : nullptr,
+                             est ? est->predict : nullptr);
+  N.triangularView<Eigen::StrictlyUpper>() = N.transpose();
+  detail::CouplingFactor factor;
+  if (r > 0)
+    factor = detail::BlockDiagonalFactor(s.U, N, &out.gain.C1);
+  else
+    out.gain.C1.resize(0, 0);
+  VectorXd v;
+  if (est) {
+    v.noalias() = out.gain.C1 * ytnu;  // mu_u = C_1 Y^T nu (after eq. (17), -C_3 = C_1)
+    *est->mu_u = v;
+  }
+  detail::BlockDiagonalPass2(s, factor, 0, n, est ? est->nu : nullptr, est ? &v : nullptr, est ? est->x : nullptr, &ws,
+                             &out);
+}
+
+}  // namespace
+
+void BlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonalCovarianceStep* result) {
+  KFX_ASSERT(result != nullptr);
+  if (&Pp == &result->P_filt) throw Error("P_prev: must not alias the output's P_filt");
+  RequireStepShapes(s, "");
+  RequirePackedCovariance("P_prev", Pp, s.c(), s.n());
+  BlockDiagonalUpdate(s, Pp, *result, /*store_gain=*/true, nullptr);  // reuses the caller's storage
+}
+
+DenseGainCovarianceStep NaiveBlockDiagonalCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp) {
+  RequireStepShapes(s, "");
+  const Index c = s.c();
+  RequirePackedCovariance("P_prev", Pp, c, s.n());
+  const ModelStep dense = ToDenseStep(s);
+  // (3) P~_{k|k-1} = F P~ F^T + V + G U G^T
+  MatrixXd P = dense.A * BlockDiagonalToDense(Pp, c) * dense.A.transpose() + dense.Q;
+  Symmetrize(P);
+  // (4) S = H P H^T + R, (5) K = P H^T S^{-1}
+  const MatrixXd PHt = P * dense.C.transpose();
+  const MatrixXd S = dense.C * PHt + dense.R;
+  Eigen::LLT<MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) throw NumericalError("S: H P H^T + R is not positive definite");
+  DenseGainCovarianceStep out;
+  out.K = llt.solve(PHt.transpose()).transpose();
+  // (6) P~_{k|k} = D{(I - K H) P~_{k|k-1}}
+  MatrixXd Pf = P - out.K * dense.C * P;
+  Symmetrize(Pf);
+  out.P_filt = DiagonalBlocks(Pf, c);
+  return out;
+}
+
+// ---- The banded step ---------------------------------------------------------------------------------
+
+MatrixXd BandedProcessNoise(const CoupledStep& s) {
+  RequireStepShapes(s, "");
+  const Index n = s.n(), c = s.c(), r = s.r();
+  MatrixXd Q = s.V;
+  if (r == 0) return Q;
+  const MatrixXd GS = s.G * PsdFactor(s.U);  // (n c) x k
+  for (Index i = 0; i < n; ++i) {
+    BlockOf(Q, i, c).noalias() += GS.middleRows(i * c, c) * GS.middleRows(i * c, c).transpose();
+  }
+  return Q;
+}
+
+BandedCovarianceStep BandedCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp) {
+  return BandedCovarianceUpdate(s, Pp, BandedProcessNoise(s));
+}
+
+BandedCovarianceStep BandedCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pp, const MatrixXd& Qb) {
+  RequireStepShapes(s, "");
+  const Index n = s.n(), c = s.c(), d = s.d();
+  RequirePackedCovariance("P_prev", Pp, c, n);
+  RequirePackedCovariance("Q_blocks", Qb, c, n);
+  BandedCovarianceStep out;
+  out.P_filt.resize(c, n * c);
+  out.K.resize(c, n * d);
+  SubsystemKalmanSteps(s, Pp, Qb, 0, n, nullptr, out.K, out.P_filt);
+  return out;
+}
+
+// ---- The full Kalman filter on the stacked system ----------------------------------------------------
+
+VectorXd FullCovarianceStep::Apply(const VectorXd& innovation) const {
+  RequireVector("innovation", innovation, HP.rows());
+  return HP.transpose() * S.solve(innovation);
+}
+
+MatrixXd FullCovarianceStep::ToDense() const { return S.solve(HP).transpose(); }
+
+FullCovarianceStep FullCovarianceUpdate(const CoupledStep& s, const MatrixXd& Pprev) {
+  RequireStepShapes(s, "");
+  const Index n = s.n(), c = s.c(), d = s.d(), N = n * c;
+  RequireShape("P_prev", Pprev, N, N);
+  FullCovarianceStep out;
+  // Predict: P = F P F^T + blockdiag(V) + G U G^T with block-diagonal F (left, then right).
+  MatrixXd P(N, N);
+  for (Index i = 0; i < n; ++i) P.middleRows(i * c, c).noalias() = BlockOf(s.F, i, c) * Pprev.middleRows(i * c, c);
+  MatrixXd P2(N, N);
+  for (Index i = 0; i < n; ++i)
+    P2.middleCols(i * c, c).noalias() = P.middleCols(i * c, c) * BlockOf(s.F, i, c).transpose();
+  P = std::move(P2);
+  for (Index i = 0; i < n; ++i) P.block(i * c, i * c, c, c) += BlockOf(s.V, i, c);
+  if (s.r() > 0) {
+    const MatrixXd GS = s.G * PsdFactor(s.U);
+    P.selfadjointView<Eigen::Lower>().rankUpdate(GS);
+  }
+  P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+  // Update: HP = blockdiag(H) P, S = HP H^T + blockdiag(R), P_filt = P - HP^T S^{-1} HP.
+  out.HP.resize(n * d, N);
+  for (Index i = 0; i < n; ++i) out.HP.middleRows(i * d, d).noalias() = BlockOf(s.H, i, c) * P.middleRows(i * c, c);
+  MatrixXd S(n * d, n * d);
+  for (Index j = 0; j < n; ++j)
+    S.middleCols(j * d, d).noalias() = out.HP.middleCols(j * c, c) * BlockOf(s.H, j, c).transpose();
+  for (Index i = 0; i < n; ++i) S.block(i * d, i * d, d, d) += BlockOf(s.R, i, d);
+  S = 0.5 * (S + S.transpose()).eval();
+  out.S.compute(S);
+  if (out.S.info() != Eigen::Success) throw NumericalError("S: H P H^T + R is not positive definite");
+  MatrixXd W = out.S.matrixL().solve(out.HP);  // L^{-1} H P
+  P.selfadjointView<Eigen::Lower>().rankUpdate(W.transpose(), -1.0);
+  P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+  out.P_filt = std::move(P);
+  return out;
+}
+
+// ---- Online part -----------------------------------------------------------------------------------
+
+VectorXd CoupledPropagate(const CoupledStep& s, const VectorXd& x_prev) {
+  return BlockDiagonalApply(s.F, s.c(), x_prev);
+}
+
+VectorXd CoupledPredictMeasurement(const CoupledStep& s, const VectorXd& x_prev) {
+  return BlockDiagonalApply(s.H, s.c(), CoupledPropagate(s, x_prev));
+}
+
+const char* ToString(CoupledFilterKind kind) {
+  switch (kind) {
+    case CoupledFilterKind::kBlockDiagonal:
+      return "block-diagonal";
+    case CoupledFilterKind::kBlockDiagonalNaive:
+      return "block-diagonal (naive)";
+    case CoupledFilterKind::kBanded:
+      return "banded";
+    case CoupledFilterKind::kFull:
+      return "full";
+  }
+  return "?";
+}
+
+CoupledFilter::CoupledFilter(CoupledFilterKind kind, VectorXd x0, const MatrixXd& P0_blocks)
+    : kind_(kind), c_(P0_blocks.rows()), x_(std::move(x0)) {
+  if (c_ < 1 || P0_blocks.cols() % c_ != 0) {
+    throw Error("P0: expected c x (n c) packed blocks, got " + Dims(P0_blocks.rows(), P0_blocks.cols()));
+  }
+  RequireVector("x0", x_, P0_blocks.cols());
+  RequireFinite("x0", x_);
+  RequireFinite("P0", P0_blocks);
+  P_ = kind == CoupledFilterKind::kFull ? BlockDiagonalToDense(P0_blocks, c_) : P0_blocks;
+}
+
+void CoupledFilter::Step(const CoupledStep& s, const VectorXd& y) {
+  RequireVector("y", y, s.n() * s.d());
+  RequireFinite("y", y);
+  CheckStep(s);
+  if (kind_ == CoupledFilterKind::kBlockDiagonal) {
+    // The prediction and the innovation are formed inside pass 1, chunk by chunk, while F and H are
+    // in cache: at large n the step streams its arrays from memory once less.
+    RequirePackedCovariance("P", P_, s.c(), s.n());
+    x_next_.resize(x_.size());
+    nu_.resize(y.size());
+    const detail::PredictFold predict{x_.data(), y.data(), x_next_.data(), nu_.data()};
+    const EstimateFold fold{nu_.data(), x_next_.data(), &mu_u_, &predict};
+    BlockDiagonalUpdate(s, P_, work_, /*store_gain=*/false, &fold);
+    sigma_u_ = work_.gain.C1;
+    P_.swap(work_.P_filt);
+    x_.swap(x_next_);
+    return;
+  }
+  VectorXd x_pred = CoupledPropagate(s, x_);
+  const VectorXd nu = y - BlockDiagonalApply(s.H, s.c(), x_pred);
+  Update(s, nu, std::move(x_pred));
+}
+
+void CoupledFilter::CheckStep(const CoupledStep& s) const {
+  RequireStepShapes(s, "");
+  if (s.c() != c_ || s.n() * s.c() != x_.size()) {
+    throw Error("step: expected " + std::to_string(x_.size() / c_) + " subsystems of " + std::to_string(c_) +
+                " states, got " + std::to_string(s.n()) + " of " + std::to_string(s.c()));
+  }
+}
+
+void CoupledFilter::StepWithInnovation(const CoupledStep& s, const VectorXd& nu) {
+  CheckStep(s);
+  RequireVector("innovation", nu, s.n() * s.d());
+  Update(s, nu, CoupledPropagate(s, x_));
+}
+
+void CoupledFilter::Update(const CoupledStep& s, const VectorXd& nu, VectorXd x) {
+  switch (kind_) {
+    case CoupledFilterKind::kBlockDiagonal: {
+      // The covariance passes apply the gain as they go (no separate passes over E and Y for K nu and
+      // mu_u; work_'s buffers are reused from step to step). The gain is not stored: the passes never
+      // read it (they apply E = A G from G in place), so writing E^T, Y^T would only cost bandwidth.
+      RequirePackedCovariance("P", P_, s.c(), s.n());
+      const EstimateFold fold{nu.data(), x.data(), &mu_u_, nullptr};
+      BlockDiagonalUpdate(s, P_, work_, /*store_gain=*/false, &fold);
+      sigma_u_ = work_.gain.C1;
+      P_.swap(work_.P_filt);
+      break;
+    }
+    case CoupledFilterKind::kBlockDiagonalNaive: {
+      DenseGainCovarianceStep st = NaiveBlockDiagonalCovarianceUpdate(s, P_);
+      x += st.K * nu;
+      // The posterior of u from the same quantities as the fast form (eq. after (17)).
+      const BlockDiagonalCovarianceStep fast = BlockDiagonalCovarianceUpdate(s, P_);
+      mu_u_ = fast.gain.CouplingMean(nu);
+      sigma_u_ = fast.gain.C1;
+      P_ = std::move(st.P_filt);
+      break;
+    }
+    case CoupledFilterKind::kBanded: {
+      BandedCovarianceStep st = BandedCovarianceUpdate(s, P_);
+      x += BlockDiagonalApply(st.K, s.d(), nu);
+      P_ = std::move(st.P_filt);
+      break;
+    }
+    case CoupledFilterKind::kFull: {
+      FullCovarianceStep st = FullCovarianceUpdate(s, P_);
+      x += st.Apply(nu);
+      P_ = std::move(st.P_filt);
+      break;
+    }
+  }
+  x_ = std::move(x);
+}
+
+CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind, const TimeSeries& y,
+                            const ProgressCallback& progress) {
+  if (y.cols() != system.meas_dim()) {
+    throw Error("y: expected " + std::to_string(system.meas_dim()) + " columns (n d), got " + std::to_string(y.cols()));
+  }
+  const int T = system.ResolveSteps(static_cast<int>(y.rows()));
+  CoupledFilter filter(kind, system.m0(), system.P0_blocks());
+  CoupledRun run;
+  run.x_filt.resize(T + 1, system.state_dim());
+  run.x_filt.row(0) = system.m0().transpose();
+  const bool coupling = kind == CoupledFilterKind::kBlockDiagonal || kind == CoupledFilterKind::kBlockDiagonalNaive;
+  if (coupling) run.coupling.resize(T, system.r());
+  run.trace.resize(T + 1);
+  auto trace = [&](const MatrixXd& P) {
+    if (kind == CoupledFilterKind::kFull) return P.trace();
+    double t = 0;
+    for (Index i = 0; i < P.cols() / system.c(); ++i) t += P.middleCols(i * system.c(), system.c()).trace();
+    return t;
+  };
+  run.trace(0) = trace(filter.P());
+  for (int k = 1; k <= T; ++k) {
+    filter.Step(*system.step(k), y.row(k - 1).transpose());
+    run.x_filt.row(k) = filter.x().transpose();
+    if (coupling) run.coupling.row(k - 1) = filter.coupling_mean().transpose();
+    run.trace(k) = trace(filter.P());
+    if (progress) progress(k, T);
+  }
+  return run;
+}
+
+LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind, int steps) {
+  const int T = system.ResolveSteps(steps);
+  std::vector<LinearFilterStep> out;
+  out.reserve(static_cast<size_t>(T));
+  MatrixXd P =
+      kind == CoupledFilterKind::kFull ? BlockDiagonalToDense(system.P0_blocks(), system.c()) : system.P0_blocks();
+  for (int k = 1; k <= T; ++k) {
+    const auto s = system.step(k);
+    MatrixXd K;
+    switch (kind) {
+      case CoupledFilterKind::kBlockDiagonal: {
+        auto st = BlockDiagonalCovarianceUpdate(*s, P);
+        K = st.gain.ToDense();
+        P = std::move(st.P_filt);
+        break;
+      }
+      case CoupledFilterKind::kBlockDiagonalNaive: {
+        auto st = NaiveBlockDiagonalCovarianceUpdate(*s, P);
+        K = std::move(st.K);
+        P = std::move(st.P_filt);
+        break;
+      }
+      case CoupledFilterKind::kBanded: {
+        auto st = BandedCovarianceUpdate(*s, P);
+        K = BlockDiagonalToDense(st.K, s->d());
+        P = std::move(st.P_filt);
+        break;
+      }
+      case CoupledFilterKind::kFull: {
+        auto st = FullCovarianceUpdate(*s, P);
+        K = st.ToDense();
+        P = std::move(st.P_filt);
+        break;
+      }
+    }
+    const MatrixXd F = BlockDiagonalToDense(s->F, s->c()), H = BlockDiagonalToDense(s->H, s->c());
+    LinearFilterStep fs;
+    fs.Phi = F - K * (H * F);
+    fs.K = std::move(K);
+    out.push_back(std::move(fs));
+  }
+  return LinearFilter(std::move(out), system.m0());
+}
+
+CoupledTrajectory SimulateCoupled(const CoupledSystem& system, int steps, std::uint64_t seed) {
+  const int T = system.ResolveSteps(steps);
+  const Index n = system.n(), c = system.c(), d = system.d(), r = system.r();
+  Rng rng(seed);
+  CoupledTrajectory tr;
+  tr.x.resize(T + 1, n * c);
+  tr.y.resize(T, n * d);
+  tr.u.resize(T, r);
+  VectorXd x(n * c);
+  for (Index i = 0; i < n; ++i) {
+    x.segment(i * c, c) =
+        system.m0().segment(i * c, c) + PsdFactor(system.P0_blocks().middleCols(i * c, c)) * rng.Normal(c);
+  }
+  tr.x.row(0) = x.transpose();
+  for (int k = 1; k <= T; ++k) {
+    const auto s = system.step(k);
+    const VectorXd u = PsdFactor(s->U) * rng.Normal(r);
+    VectorXd xn = CoupledPropagate(*s, x);
+    if (r > 0) xn.noalias() += s->G * u;
+    VectorXd yk(n * d);
+    for (Index i = 0; i < n; ++i) {
+      xn.segment(i * c, c) += PsdFactor(BlockOf(s->V, i, c)) * rng.Normal(c);
+    }
+    yk = BlockDiagonalApply(s->H, c, xn);
+    for (Index i = 0; i < n; ++i) yk.segment(i * d, d) += PsdFactor(BlockOf(s->R, i, d)) * rng.Normal(d);
+    x = std::move(xn);
+    tr.x.row(k) = x.transpose();
+    tr.y.row(k - 1) = yk.transpose();
+    tr.u.row(k - 1) = u.transpose();
+  }
+  return tr;
+}
+
+}  // namespace kfx
+
+// ---- Range-based passes for the distributed filter (src/block_diagonal_internal.hpp) -----------------
+// The same kernels and chunking as BlockDiagonalCovarianceUpdate above, over a range of subsystems.
+
+namespace kfx::detail {
+
+void BlockDiagonalResize(const CoupledStep& s, bool store_gain, BlockDiagonalCovarianceStep* out) {
+  const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
+  out->P_filt.resize(c, n * c);
+  out->gain.J.resize(c, n * d);
+  out->gain.Yt.resize(r, store_gain ? n * d : 0);
+  out->gain.Et.resize(r, store_gain ? n * c : 0);
+}
+
+namespace {
+// A workspace buffer of at least `size` doubles (kept across steps).
+double* Buffer(VectorXd& v, Index size) {
+  if (v.size() < size) v.resize(size);
+  return v.data();
+}
+// Rows [row0, row0 + rows) of G, all r columns, in place (leading dimension n c).
+using ConstStrided = Eigen::Map<const MatrixXd, 0, Eigen::OuterStride<>>;
+ConstStrided GRows(const MatrixXd& G, Index row0, Index rows) {
+  return ConstStrided(G.data() + row0, rows, G.cols(), Eigen::OuterStride<>(std::max<Index>(G.rows(), 1)));
+}
+}  // namespace
+
+void BlockDiagonalPass1(const CoupledStep& s, const MatrixXd& Pp, Index i0, Index i1, const double* nu,
+                        BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out, MatrixXd* N, VectorXd* ytnu,
+                        const PredictFold* predict) {
+  const Index c = s.c(), d = s.d(), r = s.r();
+  KFX_ASSERT(predict == nullptr || nu == predict->nu);
+  BlockDiagonalGain& g = out->gain;
+  // x_pred = F x_prev, nu = y - H x_pred for subsystems [b0, b0 + nb).
+  auto predict_chunk = [&](Index b0, Index nb) {
+    if (!predict) return;
+    double* xp = predict->x_pred + b0 * c;
+    BlockRowsTimes(s.F, c, b0, nb, predict->x_prev + b0 * c, nb * c, xp, nb * c, 1);
+    double* e = predict->nu + b0 * d;
+    BlockRowsTimes(s.H, c, b0, nb, xp, nb * c, e, nb * d, 1);
+    for (Index j = 0; j < nb * d; ++j) e[j] = predict->y[b0 * d + j] - e[j];
+  };
+  if (r == 0) {
+    for (Index b0 = i0; b0 < i1; b0 += kChunk) predict_chunk(b0, std::min(kChunk, i1 - b0));
+    SubsystemKalmanSteps(s, Pp, s.V, i0, i1, nullptr, g.J, out->P_filt);
+    return;
+  }
+  const bool store_gain = g.Et.cols() > 0;
+  const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
+  double* rinv = Buffer(w->rinv, chunk * d * d);
+  double* B = Buffer(w->B, chunk * d * c);
+  double* Z = Buffer(w->Z, chunk * d * r);
+  double* rnu = nu ? Buffer(w->rnu, chunk * d) : nullptr;
+  // The AVX2 kernels fuse Z, Z^T Z and Y^T nu for c = 2, d <= 2 (Z itself is not kept).
+  const bool simd = c == 2 && d <= 2 && !store_gain && SimdKernelsEnabled();
+  if (simd) Z = Buffer(w->Z, chunk * d * r + 64);
+  // R_c^{-T} nu of the chunk: Y^T nu = Z^T (R_c^{-T} nu).
+  auto whitened_innovation = [&](Index b0, Index nb) {
+    const double* nub = nu + b0 * d;
+    for (Index l = 0; l < nb; ++l) {
+      for (Index a = 0; a < d; ++a) {
+        double acc = 0.0;
+        for (Index b = 0; b <= a; ++b) acc += rinv[l * d * d + a * d + b] * nub[l * d + b];  // (R_c^{-1})_{ba}
+        rnu[l * d + a] = acc;
+      }
+    }
+  };
+  for (Index b0 = i0; b0 < i1; b0 += chunk) {
+    const Index nb = std::min(chunk, i1 - b0);
+    predict_chunk(b0, nb);
+    SubsystemKalmanSteps(s, Pp, s.V, b0, b0 + nb, rinv, g.J, out->P_filt);
+    // Z = blockdiag(R_c^{-T} H_i) G_chunk ((nb d) x r), read from G in place, one column sweep.
+    WhitenedMeasurement(c, d, nb, s.H.data() + b0 * d * c, rinv, B);
+    const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
+    if (simd) {
+      if (nu) whitened_innovation(b0, nb);
+      double* Nd = N->data();
+      double* yd = ytnu ? ytnu->data() : nullptr;
+      if (d == 1) {
+        Pass1C2D1Avx2(nb, r, B, Gc.data(), Gc.outerStride(), nu ? rnu : nullptr, Nd, yd, Z);
+      } else {
+        Pass1C2D2Avx2(nb, r, B, Gc.data(), Gc.outerStride(), nu ? rnu : nullptr, Nd, yd, Z);
+      }
+      continue;
+    }
+    BlockRowsTimesRaw(B, d, c, nb, Gc.data(), Gc.outerStride(), Z, nb * d, r);
+    const Eigen::Map<const MatrixXd> Zc(Z, nb * d, r);
+    N->selfadjointView<Eigen::Lower>().rankUpdate(Zc.transpose());  // one DSYRK per chunk
+    if (nu) {
+      whitened_innovation(b0, nb);
+      ytnu->noalias() += Zc.transpose() * Eigen::Map<const VectorXd>(rnu, nb * d);
+    }
+    if (store_gain) {
+      // Y_i = M_i^{-1} H_i G_i = R_c^{-1} Z_i and E_i = A_i G_i, stored transposed (r x d, r x c blocks).
+      double* Y = Buffer(w->Wt, nb * std::max(c, d) * r);
+      BlockRowsTimesRaw(rinv, d, d, nb, Z, nb * d, Y, nb * d, r);
+      g.Yt.middleCols(b0 * d, nb * d) = Eigen::Map<const MatrixXd>(Y, nb * d, r).transpose();
+      double* A = Buffer(w->A, nb * c * c);
+      GainResidual(c, d, nb, g.J.data() + b0 * c * d, s.H.data() + b0 * d * c, A);
+      BlockRowsTimesRaw(A, c, c, nb, Gc.data(), Gc.outerStride(), Y, nb * c, r);
+      g.Et.middleCols(b0 * c, nb * c) = Eigen::Map<const MatrixXd>(Y, nb * c, r).transpose();
+    }
+  }
+}
+
+CouplingFactor BlockDiagonalFactor(const MatrixXd& U, const MatrixXd& N, MatrixXd* C1) {
+  // C_1 = (U^{-1} + N)^{-1} (eq. (11)) without inverting U (U may be singular, even 0):
+  // with U = S S^T, C_1 = S (I + S^T N S)^{-1} S^T = F F^T, F = S L^{-T}, (I + S^T N S) = L L^T.
+  // U's factor is kept from the last call on this thread (U is usually the same every step).
+  thread_local MatrixXd U_last, S;
+  if (U_last.rows() != U.rows() || U_last != U) {
+    S = PsdFactor(U);
+    U_last = U;
+  }
+  const Index k = S.cols();
+  MatrixXd T = MatrixXd::Identity(k, k);
+  const MatrixXd NS = N * S;
+  T.noalias() += S.transpose() * NS;
+  const Eigen::LLT<MatrixXd> tl(T);
+  if (tl.info() != Eigen::Success) throw NumericalError("I + S^T N S: not positive definite (N is not PSD)");
+  const MatrixXd FT = tl.matrixL().solve(S.transpose());  // k x r: F^T
+  C1->noalias() = FT.transpose() * FT;
+  // Pass 2 needs any factor of C_1; a lower trapezoidal one, C_1 = Ld Ld^T, makes W = G Ld cost half
+  // the flops of G F: the Cholesky factor of C_1 or, when C_1 is singular (U is), the LQ factor of F
+  // (F = Ld Q, from the QR of F^T).
+  CouplingFactor f;
+  const Eigen::LLT<MatrixXd> chol(*C1);
+  if (chol.info() == Eigen::Success) {
+    f.Ld = chol.matrixL();
+  } else {
+    const Eigen::HouseholderQR<MatrixXd> qr(FT);
+    f.Ld = MatrixXd(qr.matrixQR().topRows(std::min(k, U.rows())).triangularView<Eigen::Upper>()).transpose();
+  }
+  f.FcT = f.Ld.transpose();
+  return f;
+}
+
+namespace {
+// The rest of pass 2 for c = 2, d = 1, fused per subsystem: A = J H - I, P_i += A T_i A^T (T_i from
+// the Gram sums sq, cross) and, when x is given, x_i += J nu_i - A (G_i mu_u).
+void FinishC2D1(Index nb, const double* J, const double* H, const double* sq, const double* cross, const double* nu,
+                const double* gv, double* P, double* x) {
+  for (Index l = 0; l < nb; ++l) {
+    const double j0 = J[2 * l], j1 = J[2 * l + 1], h0 = H[2 * l], h1 = H[2 * l + 1];
+    const double a00 = j0 * h0 - 1.0, a01 = j0 * h1, a10 = j1 * h0, a11 = j1 * h1 - 1.0;
+    const double t00 = sq[2 * l], t11 = sq[2 * l + 1], t10 = cross[2 * l];
+    // rows of A T
+    const double b00 = a00 * t00 + a01 * t10, b01 = a00 * t10 + a01 * t11;
+    const double b10 = a10 * t00 + a11 * t10, b11 = a10 * t10 + a11 * t11;
+    double* p = P + 4 * l;
+    p[0] += b00 * a00 + b01 * a01;
+    const double off = b10 * a00 + b11 * a01;
+    p[1] += off;
+    p[2] = p[1];
+    p[3] += b10 * a10 + b11 * a11;
+    if (x) {
+      const double e = nu[l], g0 = gv[2 * l], g1 = gv[2 * l + 1];
+      x[2 * l] += j0 * e - (a00 * g0 + a01 * g1);
+      x[2 * l + 1] += j1 * e - (a10 * g0 + a11 * g1);
+    }
+  }
+}
+}  // namespace
+
+void BlockDiagonalPass2(const CoupledStep& s, const CouplingFactor& factor, Index i0, Index i1, const double* nu,
+                        const VectorXd* v, double* x, BlockDiagonalWorkspace* w, BlockDiagonalCovarianceStep* out) {
+  const Index c = s.c(), d = s.d(), r = s.r(), k = factor.FcT.rows();
+  BlockDiagonalGain& g = out->gain;
+  const Index chunk = std::min(kChunk, std::max<Index>(i1 - i0, 1));
+  // The AVX2 kernel fuses W = G Fc (triangular Fc), its Gram blocks and G mu_u for c = 2.
+  const bool simd = c == 2 && r > 0 && SimdKernelsEnabled();
+  double* jnu = x ? Buffer(w->jnu, chunk * c) : nullptr;
+  double* A = r > 0 ? Buffer(w->A, chunk * c * c) : nullptr;
+  double* Wt = r > 0 && !simd ? Buffer(w->Wt, chunk * c * std::max<Index>(k, 1)) : nullptr;
+  double* T = r > 0 ? Buffer(w->T, chunk * c * c) : nullptr;
+  double* gv = x && r > 0 ? Buffer(w->gv, chunk * c) : nullptr;
+  for (Index b0 = i0; b0 < i1; b0 += chunk) {
+    const Index nb = std::min(chunk, i1 - b0);
+    if (simd && d == 1) {
+      const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
+      Pass2C2Avx2(nb, r, factor.Ld.cols(), Gc.data(), Gc.outerStride(), factor.Ld.data(), x ? v->data() : nullptr, T,
+                  T + nb * c, gv);
+      FinishC2D1(nb, g.J.data() + b0 * c, s.H.data() + b0 * c, T, T + nb * c, x ? nu + b0 : nullptr, gv,
+                 out->P_filt.data() + b0 * c * c, x ? x + b0 * c : nullptr);
+      continue;
+    }
+    if (x) {  // x_i += J_i nu_i
+      BlockRowsTimes(g.J, d, b0, nb, nu + b0 * d, nb * d, jnu, nb * c, 1);
+      Eigen::Map<VectorXd>(x + b0 * c, nb * c) += Eigen::Map<const VectorXd>(jnu, nb * c);
+    }
+    if (r == 0) continue;
+    // E_i = A_i G_i, so E_i C_1 E_i^T = A_i (G_i Fc)(G_i Fc)^T A_i^T (eq. (8) with C_2 = C_1,
+    // C_3 = -C_1): W = G_chunk Fc straight from G, the Gram blocks T_i = W_i W_i^T, then
+    // P_i += A_i T_i A_i^T.
+    GainResidual(c, d, nb, g.J.data() + b0 * c * d, s.H.data() + b0 * d * c, A);
+    const ConstStrided Gc = GRows(s.G, b0 * c, nb * c);
+    if (simd) {  // T in GramBlocks' layout: T_i(0, 0), T_i(1, 1) at T[2 i + b], T_i(1, 0) at T[nb c + 2 i]
+      Pass2C2Avx2(nb, r, factor.Ld.cols(), Gc.data(), Gc.outerStride(), factor.Ld.data(), x ? v->data() : nullptr, T,
+                  T + nb * c, gv);
+    } else {
+      const int m = static_cast<int>(nb * c), nk = static_cast<int>(k), nr = static_cast<int>(r);
+      const int ldg = static_cast<int>(Gc.outerStride()), ldf = static_cast<int>(std::max<Index>(k, 1));
+      const double one = 1.0, zero = 0.0;
+      if (k > 0) {
+        dgemm_("N", "T", &m, &nk, &nr, &one, Gc.data(), &ldg, factor.FcT.data(), &ldf, &zero, Wt, &m);
+        GramBlocks(c, k, nb, Wt, nb * c, T);
+      } else {
+        std::fill(T, T + nb * c * c, 0.0);
+      }
+      if (x) Eigen::Map<VectorXd>(gv, nb * c).noalias() = Gc * *v;
+    }
+    CongruenceSoA(c, nb, A, T, out->P_filt.data() + b0 * c * c);
+    if (x) {  // x_i -= E_i mu_u = A_i (G_i mu_u)
+      BlockRowsTimesRaw(A, c, c, nb, gv, nb * c, jnu, nb * c, 1);
+      Eigen::Map<VectorXd>(x + b0 * c, nb * c) -= Eigen::Map<const VectorXd>(jnu, nb * c);
+    }
+  }
+}
+
+}  // namespace kfx::detail

@@ -1,0 +1,301 @@
+// The bounds of paper 002 (Patel, Toda 1977), Theorems 1-6 and the Lemma of Sec. 5. API, equations
+// and the corrections to the printed formulas: include/kfx/mismatch.hpp, docs/papers/002.md.
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <vector>
+
+#include "base/lapack_eigen.hpp"
+#include "kfx/error.hpp"
+#include "kfx/mismatch.hpp"
+#include "kfx/riccati.hpp"
+#include "kfx/validation.hpp"
+#include "methods/mismatch/mismatch_internal.hpp"
+
+namespace kfx {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// The positive root of a1 t^2 + a2 t - a3 = 0 (002 (28)), written 2 a3 / (a2 + sqrt(a2^2 + 4 a1 a3))
+/// to avoid cancellation and to cover a1 = 0. Returns 0 (no information) when a3 <= 0, or when the
+/// inequality has no positive solution (a1 = 0, a2 <= 0: the theorem's assumptions do not hold).
+double QuadraticLowerRoot(double a1, double a2, double a3) {
+  if (!(a3 > 0.0)) return 0.0;
+  const double den = a2 + std::sqrt(a2 * a2 + 4.0 * a1 * a3);
+  return den > 0.0 ? 2.0 * a3 / den : 0.0;
+}
+
+/// The x at which exp(2x) = 1 / (1 - x) (x > 0): below it, (41) as printed is implied by the sound
+/// bound |U_M| / 2 / (1 - x).
+double PrintedLemmaLimit() {
+  double lo = 0.5, hi = 0.99;
+  for (int it = 0; it < 100; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (2.0 * mid + std::log1p(-mid) > 0.0 ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+double MinEigenvalueSym(const MatrixXd& m) {
+  return Eigen::SelfAdjointEigenSolver<MatrixXd>(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly)
+      .eigenvalues()
+      .minCoeff();
+}
+
+void RequireNorms(const ErrorNorms& e) {
+  const double v[5] = {e.A, e.C, e.Q, e.R, e.A_diagonal_abs_sum};
+  for (double x : v)
+    if (!(x >= 0.0) || !std::isfinite(x)) throw Error("norms: expected finite non-negative error norms");
+}
+
+void RequirePlantExact(const ErrorNorms& e, const char* theorem) {
+  RequireNorms(e);
+  if (e.A != 0.0 || e.C != 0.0) {
+    throw Error(std::string("norms: ") + theorem +
+                " needs dA = 0 and dC = 0 (noise covariance errors only), got |dA| = " + std::to_string(e.A) +
+                ", |dC| = " + std::to_string(e.C));
+  }
+}
+
+void RequireNoiseExact(const ErrorNorms& e, const char* theorem) {
+  RequireNorms(e);
+  if (e.Q != 0.0 || e.R != 0.0) {
+    throw Error(std::string("norms: ") + theorem + " needs dQ = 0 and dR = 0 (plant errors only), got |dQ| = " +
+                std::to_string(e.Q) + ", |dR| = " + std::to_string(e.R));
+  }
+}
+
+}  // namespace
+
+DesignTerms ComputeDesignTerms(const ModelStep& design, const MismatchOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw Error("options." + why);
+  detail::ValidateDesignStep(design, "design: ");
+  DesignTerms t;
+  if (!detail::ResolveFilterGain(design, options, &t.filter_gain, &why)) throw NumericalError(why);
+  const Index n = design.A.rows();
+  t.L = MatrixXd::Identity(n, n) - t.filter_gain * design.C;
+  detail::NoiseInputOf(design, &t.G, &t.noise_cov);
+  const MatrixXd F = t.L * design.A;
+  t.filter_spectral_radius = SpectralRadius(F);
+  if (t.filter_spectral_radius >= 1.0) {
+    throw NumericalError("the filter is unstable (rho(L A_M) = " + std::to_string(t.filter_spectral_radius) +
+                         "): no stationary error, no bound");
+  }
+  // B (25) = L G Q_M G^T L^T + K_M R_M K_M^T; i^T M^{-1} b = tr X, X = F X F^T + B.
+  MatrixXd B = t.L * design.Q * t.L.transpose() + t.filter_gain * design.R * t.filter_gain.transpose();
+  Symmetrize(B);
+  t.nominal_trace = SolveDiscreteLyapunov(F, B).trace();
+  // M^T = I - F^T (x) F^T, so (M^{-1})^T i = cs(Y) with Y = F^T Y F + I.
+  t.adjoint_norm = SolveDiscreteLyapunov(F.transpose(), MatrixXd::Identity(n, n)).norm();
+  return t;
+}
+
+Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& errors, const MismatchOptions& options) {
+  const DesignTerms t = ComputeDesignTerms(design, options);
+  const ModelStep truth = ApplyModelingErrors(design, errors);
+  MismatchOptions fixed = options;
+  fixed.filter_gain = t.filter_gain;
+  Theorem1Result r;
+  r.exact = StationaryMismatchedCovariance(design, truth, fixed);
+  if (!r.exact.ok()) throw NumericalError("Theorem 1: " + r.exact.message);
+  const Index n = design.A.rows(), m = design.C.rows(), p = t.noise_cov.rows();
+  const MatrixXd& K = t.filter_gain;
+  const MatrixXd& L = t.L;
+  const MatrixXd dA = detail::OrZeros(errors.A, n, n);
+  const MatrixXd dC = detail::OrZeros(errors.C, m, n);
+  const MatrixXd dQ = t.G * detail::OrZeros(errors.Q, p, p) * t.G.transpose();
+  const MatrixXd dR = detail::OrZeros(errors.R, m, m);
+  const MatrixXd& AM = design.A;
+  const MatrixXd F = L * AM;
+  const MatrixXd dCp = L * dA - K * dC * AM + K * dC * dA;  // (27)
+  const MatrixXd LK = L + K * dC;
+  const MatrixXd& QM = design.Q;  // G Q_M G^T
+  const MatrixXd& V = r.exact.V;
+  const MatrixXd& U = r.exact.U;
+  // (26), corrected (docs/papers/002.md).
+  MatrixXd D = L * QM * dC.transpose() * K.transpose() + K * dC * QM * LK.transpose() +
+               dCp * V * AM.transpose() * L.transpose() + L * AM * V.transpose() * dCp.transpose() +
+               dCp * U * dCp.transpose() - LK * dQ * LK.transpose() - K * dR * K.transpose();
+  Symmetrize(D);
+  r.D_norm = D.norm();
+  r.pi1 = t.nominal_trace + t.adjoint_norm * r.D_norm;
+  MatrixXd B = L * QM * L.transpose() + K * design.R * K.transpose();
+  Symmetrize(B);
+  r.identity_trace = SolveDiscreteLyapunov(F, B + D).trace();
+  return r;
+}
+
+double Theorem2Bound(const ModelStep& truth) {
+  detail::ValidateDesignStep(truth, "truth: ");
+  const Index n = truth.A.rows();
+  const Eigen::LLT<MatrixXd> r_llt(truth.R);
+  const MatrixXd CA = truth.C * truth.A;
+  const MatrixXd a1_matrix = CA.transpose() * r_llt.solve(CA);  // A^T C^T R^{-1} C A (PSD)
+  const double a1 = detail::SpectralNorm(a1_matrix);            // (29), exponent 1 (printed: 5)
+  Eigen::VectorXcd lambda;
+  if (!detail::EigenDecompose(truth.A, &lambda, nullptr))
+    throw NumericalError("Theorem 2: eigenvalues of A: QR failed");
+  const double a2 = static_cast<double>(n) + (truth.C.transpose() * r_llt.solve(truth.C) * truth.Q).trace() -
+                    lambda.cwiseAbs2().sum();  // (30)
+  const double a3 = truth.Q.trace();           // (31)
+  return QuadraticLowerRoot(a1, a2, a3);
+}
+
+double Theorem3Bound(const DesignTerms& terms, const ErrorNorms& norms) {
+  RequirePlantExact(norms, "Theorem 3");
+  const double lg = detail::SpectralNorm(terms.L * terms.G), k = detail::SpectralNorm(terms.filter_gain);
+  return terms.nominal_trace + terms.adjoint_norm * (lg * lg * norms.Q + k * k * norms.R);  // (33)
+}
+
+double Theorem4Bound(const ModelStep& design, const ErrorNorms& norms, EigenvalueTerm eigenvalue_term) {
+  RequirePlantExact(norms, "Theorem 4");
+  detail::ValidateDesignStep(design, "design: ");
+  MatrixXd G, QM;
+  detail::NoiseInputOf(design, &G, &QM);
+  const Index n = design.A.rows();
+  const double r_min = MinEigenvalueSym(design.R) - norms.R;  // Weyl, (38)
+  if (!(r_min > 0.0)) return 0.0;
+  const double ca = detail::SpectralNorm(design.C * design.A);
+  const double alpha1 = ca * ca / r_min;  // (35)
+  double eig_term = 0.0;
+  if (eigenvalue_term == EigenvalueTerm::kAsPrinted) {
+    Eigen::VectorXcd lambda;
+    if (!detail::EigenDecompose(design.A, &lambda, nullptr))
+      throw NumericalError("Theorem 4: eigenvalues of A: QR failed");
+    eig_term = lambda.cwiseAbs2().sum();
+  } else {
+    eig_term = design.A.trace() * design.A.trace() / static_cast<double>(std::max<Index>(n, 1));
+  }
+  const double alpha2 = static_cast<double>(n) +
+                        (design.C * G).squaredNorm() * (detail::SpectralNorm(QM) + norms.Q) / r_min - eig_term;  // (36)
+  const double g = detail::SpectralNorm(G);
+  const double alpha3 =
+      (G * QM * G.transpose()).trace() - static_cast<double>(G.cols()) * g * g * norms.Q;  // (37), (40)
+  return QuadraticLowerRoot(alpha1, alpha2, alpha3);
+}
+
+LemmaBound LemmaStateBound(const ModelStep& design, double dA_norm) {
+  detail::ValidateDesignStep(design, "design: ");
+  if (!(dA_norm >= 0.0) || !std::isfinite(dA_norm)) {
+    throw Error("dA_norm: expected a finite non-negative number, got " + std::to_string(dA_norm));
+  }
+  LemmaBound b;
+  const Index n = design.A.rows();
+  const MatrixXd& AM = design.A;
+  const MatrixXd I = MatrixXd::Identity(n, n);
+  Eigen::VectorXcd lambda;
+  Eigen::MatrixXcd T;
+  if (!detail::EigenDecompose(AM, &lambda, &T)) {
+    b.applies = false;
+    b.message = "eigenvectors of A_M: QR failed";
+    return b;
+  }
+  b.sigma = -kInf;
+  for (Index k = 0; k < n; ++k) {
+    if (std::abs(lambda(k) + 1.0) < 1e-12) {
+      b.applies = false;
+      b.message = "A_M has the eigenvalue -1: no Cayley transform (42)";
+      return b;
+    }
+    b.sigma = std::max(b.sigma, ((lambda(k) - 1.0) / (lambda(k) + 1.0)).real());  // eigenvalues of F_M
+  }
+  b.kappa = detail::ConditionNumber(T);
+  if (!(b.sigma < 0.0)) {
+    b.applies = false;
+    b.message = "A_M is not stable (max Re lambda(F_M) >= 0)";
+    return b;
+  }
+  if (!(b.kappa < 1e12)) {
+    b.applies = false;
+    b.message = "A_M is not (numerically) diagonalizable: cond(T) = " + std::to_string(b.kappa);
+    return b;
+  }
+  // F_M = (A_M^T + I)^{-1} (A_M^T - I) (42).
+  const MatrixXd FM = (AM.transpose() + I).partialPivLu().solve(AM.transpose() - I);
+  // U_M: F_M^T U_M + U_M F_M = -(I - F_M^T) G Q G^T (I - F_M); by (44) U_M = 2 X, X = A_M X A_M^T + G Q G^T.
+  b.UM_norm = 2.0 * detail::SpectralNorm(SolveDiscreteLyapunov(AM, design.Q));
+  const double ifm = detail::SpectralNorm(I - FM);
+  const double c = ifm * ifm * (dA_norm * dA_norm + 2.0 * dA_norm * detail::SpectralNorm(AM));
+  b.x = c * b.kappa * b.kappa / (-4.0 * b.sigma);
+  b.beta_printed = 0.5 * b.UM_norm * std::exp(2.0 * b.x);  // (41): exp[-kappa^2 / (2 sigma) c]
+  b.beta = b.x < 1.0 ? 0.5 * b.UM_norm / (1.0 - b.x) : kInf;
+  static const double limit = PrintedLemmaLimit();
+  b.printed_is_valid = b.x <= limit;
+  return b;
+}
+
+Theorem5Result Theorem5Bound(const ModelStep& design, const DesignTerms& terms, const ErrorNorms& norms) {
+  RequireNoiseExact(norms, "Theorem 5");
+  Theorem5Result r;
+  r.lemma = LemmaStateBound(design, norms.A);
+  if (!r.lemma.applies) {
+    r.pi5 = r.pi5_printed = kInf;
+    return r;
+  }
+  const MatrixXd& K = terms.filter_gain;
+  const double nk = detail::SpectralNorm(K), nam = detail::SpectralNorm(design.A);
+  const double d = detail::SpectralNorm(terms.L) * norms.A + nk * nam * norms.C + nk * norms.C * norms.A;  // (48)
+  const double m = terms.adjoint_norm;
+  const double f = detail::SpectralNorm(terms.L * design.A);
+  const double extra = nk * nk * detail::SpectralNorm(design.Q) * norms.C * norms.C +
+                       2.0 * nk * detail::SpectralNorm(terms.L * design.Q) * norms.C;
+  auto pi5 = [&](double beta) {
+    if (!std::isfinite(beta)) return kInf;
+    const double mu1 = std::sqrt(beta) * m * f * d;
+    const double mu2 = terms.nominal_trace + m * (beta * d * d + extra);
+    const double s = mu1 + std::sqrt(mu1 * mu1 + mu2);
+    return s * s;  // (46)
+  };
+  r.pi5 = pi5(r.lemma.beta);
+  r.pi5_printed = pi5(r.lemma.beta_printed);
+  return r;
+}
+
+double Theorem6Bound(const ModelStep& design, const ErrorNorms& norms) {
+  RequireNoiseExact(norms, "Theorem 6");
+  detail::ValidateDesignStep(design, "design: ");
+  const Index n = design.A.rows();
+  const double h = detail::SpectralNorm(design.C) + norms.C;
+  const double r_inv = 1.0 / MinEigenvalueSym(design.R);
+  const double a = detail::SpectralNorm(design.A) + norms.A;
+  const double tr_q = design.Q.trace();
+  const double gamma1 = h * h * r_inv * a * a;
+  const double t = std::max(0.0, std::abs(design.A.trace()) - norms.A_diagonal_abs_sum);
+  const double gamma2 =
+      static_cast<double>(n) + h * h * r_inv * tr_q - t * t / static_cast<double>(std::max<Index>(n, 1));
+  return QuadraticLowerRoot(gamma1, gamma2, tr_q);  // (50)
+}
+
+PatelTodaBounds ComputePatelTodaBounds(const ModelStep& design, const ErrorRanges& ranges,
+                                       const MismatchOptions& options) {
+  ValidateErrorRanges(design, ranges);
+  PatelTodaBounds b;
+  b.norms = ErrorNormsFromRanges(ranges);
+  b.terms = ComputeDesignTerms(design, options);
+  if (ranges.PlantExact()) {
+    ErrorNorms e = b.norms;
+    e.A = e.C = e.A_diagonal_abs_sum = 0.0;
+    b.pi3 = Theorem3Bound(b.terms, e);
+    b.pi4 = Theorem4Bound(design, e);
+  }
+  if (ranges.NoiseExact()) {
+    ErrorNorms e = b.norms;
+    e.Q = e.R = 0.0;
+    const Theorem5Result t5 = Theorem5Bound(design, b.terms, e);
+    b.pi5 = t5.pi5;
+    b.pi5_printed = t5.pi5_printed;
+    b.lemma = t5.lemma;
+    b.pi6 = Theorem6Bound(design, e);
+  }
+  return b;
+}
+
+}  // namespace kfx

@@ -1,0 +1,156 @@
+#include "kfx/reproduce.hpp"
+
+#include <cmath>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "kfx/error.hpp"
+#include "reproduce/papers.hpp"
+
+namespace kfx {
+
+namespace {
+
+using Reproducer = PaperReport (*)(const ReproduceOptions&);
+
+struct PaperInfo {
+  const char* id;
+  const char* title;
+  const char* source;
+  // The paper's reproduction, defined in its own src/reproduce_<paper>.cpp (declared in
+  // src/reproduce_papers.hpp). Explicit, not self-registering: a static library drops objects
+  // that nothing references.
+  Reproducer reproduce;
+};
+
+const PaperInfo kPapers[] = {
+    {"aalto-spatial", "Aalto: spatial discretization error in Kalman filtering (000)", "000_2fdf8a9810478b94.txt",
+     detail::ReproduceAaltoSpatial},
+    {"bernstein", "Chandrasekar, Kim, Bernstein: finite-horizon reduced-order estimators (001)",
+     "001_1f60d5bfbc0b8ad7.txt", detail::ReproduceBernstein},
+    {"patel-toda", "Patel, Toda: modeling error analysis of stationary filters (002)", "002_3fbfce7a479149cb.txt",
+     detail::ReproducePatelToda},
+    {"aalto-temporal", "Aalto: convergence of discrete to continuous-time Kalman filter (003)",
+     "003_cdbc1acc1716879d.txt", detail::ReproduceAaltoTemporal},
+    {"block-diagonal", "Pogorelyuk, Rowley, Kasdin: block-diagonal Kalman filter approximation (004)",
+     "004_e32b16110c2ac44a.txt", detail::ReproduceBlockDiagonal},
+};
+
+const PaperInfo* FindPaper(const std::string& id) {
+  for (const auto& p : kPapers)
+    if (id == p.id) return &p;
+  return nullptr;
+}
+
+std::string IdList() {
+  std::string s;
+  for (const auto& p : kPapers) s += std::string(s.empty() ? "" : ", ") + p.id;
+  return s + ", all";
+}
+
+std::string FormatNumber(std::optional<double> v) {
+  if (!v) return "-";
+  std::ostringstream os;
+  os << std::setprecision(6) << *v;
+  return os.str();
+}
+
+}  // namespace
+
+std::optional<double> ReproduceItem::rel_diff() const {
+  if (!published) return std::nullopt;
+  const double denom = std::abs(*published) > 0 ? std::abs(*published) : 1.0;
+  return std::abs(value - *published) / denom;
+}
+
+std::string ReproduceItem::status() const {
+  const auto d = rel_diff();
+  if (!d) return "new";
+  return *d <= tolerance ? "reproduced" : "differs";
+}
+
+std::vector<std::string> PaperIds() {
+  std::vector<std::string> ids;
+  for (const auto& p : kPapers) ids.push_back(p.id);
+  return ids;
+}
+
+PaperReport Reproduce(const std::string& paper, const ReproduceOptions& options) {
+  const PaperInfo* info = FindPaper(paper);
+  if (!info) throw Error("paper: expected one of " + IdList() + ", got '" + paper + "'");
+  PaperReport report;
+  if (info->reproduce) report = info->reproduce(options);
+  report.paper = info->id;
+  report.title = info->title;
+  report.source = info->source;
+  if (!info->reproduce) {
+    report.notes.push_back("no reproduction items for this paper in this version of kfx (its issue is open)");
+  }
+  return report;
+}
+
+std::string FormatReportTable(const PaperReport& r) {
+  std::ostringstream os;
+  os << "== " << r.paper << ": " << r.title << "\n";
+  if (!r.items.empty()) {
+    size_t wk = 3, wd = 11;
+    for (const auto& it : r.items) {
+      wk = std::max(wk, it.key.size());
+      wd = std::max(wd, std::min<size_t>(it.description.size(), 60));
+    }
+    os << std::left << std::setw(static_cast<int>(wk)) << "key"
+       << "  " << std::setw(static_cast<int>(wd)) << "description"
+       << "  " << std::right << std::setw(13) << "published"
+       << "  " << std::setw(13) << "kfx"
+       << "  " << std::setw(9) << "rel.diff"
+       << "  "
+       << "status\n";
+    for (const auto& it : r.items) {
+      const auto d = it.rel_diff();
+      std::ostringstream rd;
+      if (d) rd << std::scientific << std::setprecision(1) << *d;
+      os << std::left << std::setw(static_cast<int>(wk)) << it.key << "  " << std::setw(static_cast<int>(wd))
+         << it.description.substr(0, 60) << "  " << std::right << std::setw(13) << FormatNumber(it.published) << "  "
+         << std::setw(13) << FormatNumber(it.value) << "  " << std::setw(9) << (d ? rd.str() : "-") << "  "
+         << it.status() << "\n";
+      if (!it.note.empty()) os << "    note: " << it.note << "\n";
+    }
+  }
+  for (const auto& n : r.notes) os << "  " << n << "\n";
+  for (const auto& f : r.figures) os << "  figure: " << f << "\n";
+  return os.str();
+}
+
+std::string ReportsToJson(const std::vector<PaperReport>& reports, bool as_all) {
+  auto one = [](const PaperReport& r) {
+    nlohmann::ordered_json items = nlohmann::ordered_json::array();
+    for (const auto& it : r.items) {
+      nlohmann::ordered_json j;
+      j["key"] = it.key;
+      j["description"] = it.description;
+      j["published"] = it.published ? nlohmann::ordered_json(*it.published) : nlohmann::ordered_json(nullptr);
+      j["value"] = std::isfinite(it.value) ? nlohmann::ordered_json(it.value) : nlohmann::ordered_json(nullptr);
+      const auto d = it.rel_diff();
+      j["rel_diff"] = d && std::isfinite(*d) ? nlohmann::ordered_json(*d) : nlohmann::ordered_json(nullptr);
+      j["status"] = it.status();
+      items.push_back(j);
+    }
+    nlohmann::ordered_json j;
+    j["paper"] = r.paper;
+    j["items"] = items;
+    j["figures"] = r.figures;
+    return j;
+  };
+  if (!as_all) {
+    if (reports.size() != 1) throw Error("reports: expected exactly one report without 'all'");
+    return one(reports[0]).dump(2);
+  }
+  nlohmann::ordered_json papers = nlohmann::ordered_json::array();
+  for (const auto& r : reports) papers.push_back(one(r));
+  nlohmann::ordered_json j;
+  j["papers"] = papers;
+  return j.dump(2);
+}
+
+}  // namespace kfx
