@@ -54,7 +54,7 @@ void RunDare(benchmark::State& state, kfx::DareMethod method) {
   if (!sol.summary.ok()) state.SkipWithError(sol.summary.BriefReport().c_str());
   state.counters["residual"] = sol.summary.relative_residual;
   state.counters["steps"] = sol.summary.iterations;
-  state.counters["refine"] = sol.summary.refinement_steps;
+  state.counters["refine"] = sol.refinement_steps;
 }
 
 void BM_DareDoubling(benchmark::State& state) { RunDare(state, kfx::DareMethod::kDoubling); }

@@ -77,7 +77,7 @@ nlohmann::ordered_json ToJson(const MatrixXd& m) {
 // ---- simulate ------------------------------------------------------------------------------
 int RunSimulate(const SimulateArgs& a) {
   const Model model = LoadModel(a.model);
-  const Trajectory tr = Simulate(model, a.steps, a.seed);
+  const Trajectory tr = Simulate(model, SimulationOptions{a.steps, a.seed});
   MakeDir(a.out);
   const std::string ext = a.csv ? ".csv" : ".npy";
   WriteTimeSeries(Join(a.out, "x" + ext), tr.x);
@@ -175,10 +175,10 @@ int RunAnalyze(const AnalyzeArgs& a) {
     const DareSolution dare = SolveFilterDare(s->A, s->C, s->Q, s->R, dare_options);
     std::cout << "steady state (filter DARE" << (a.design.empty() ? "" : " of the design model")
               << "): " << dare.summary.BriefReport() << "\n";
-    j["dare"] = {{"status", ToString(dare.summary.status)},
-                 {"method", ToString(dare.summary.method_used)},
+    j["dare"] = {{"status", ToString(dare.summary.termination)},
+                 {"method", ToString(dare.method_used)},
                  {"relative_residual", dare.summary.relative_residual},
-                 {"closed_loop_spectral_radius", dare.summary.closed_loop_spectral_radius},
+                 {"closed_loop_spectral_radius", dare.closed_loop_spectral_radius},
                  {"iterations", dare.summary.iterations}};
     if (dare.summary.ok()) {
       std::cout << std::setprecision(6);
@@ -186,28 +186,28 @@ int RunAnalyze(const AnalyzeArgs& a) {
       PrintMatrix("P_filt  (a posteriori, P_{k|k})", dare.P_filt);
       PrintMatrix("filter gain K_f  (x_{k|k} = x_{k|k-1} + K_f nu_k)", dare.filter_gain);
       PrintMatrix("predictor gain K_p = A K_f  (x_{k+1|k} = A x_{k|k-1} + K_p nu_k)", dare.predictor_gain);
-      std::cout << "  closed-loop spectral radius rho(A - K_p C) = " << dare.summary.closed_loop_spectral_radius
+      std::cout << "  closed-loop spectral radius rho(A - K_p C) = " << dare.closed_loop_spectral_radius
                 << "\n  DARE relative residual = " << dare.summary.relative_residual << "\n";
       j["P_pred"] = ToJson(dare.P_pred);
       j["P_filt"] = ToJson(dare.P_filt);
       j["filter_gain"] = ToJson(dare.filter_gain);
       j["predictor_gain"] = ToJson(dare.predictor_gain);
       if (truth.time_invariant()) {
-        const LinearFilter f = ConstantGainFilter(*s, dare.filter_gain, truth.m0());
+        const LinearFilter f = ConstantGainAsLinearFilter(*s, dare.filter_gain, truth.m0());
         const StationaryPerformance st = ExactStationaryPerformance(truth, f);
-        if (st.exists()) {
+        if (st.summary.ok()) {
           std::cout << "  true stationary MSE of the steady-state filter on MODEL: " << st.mse << " ("
                     << ToString(st.method) << ")\n";
           j["stationary_mse"] = st.mse;
         } else {
-          std::cout << "  true stationary MSE of the steady-state filter on MODEL: none (" << st.message << ")\n";
+          std::cout << "  true stationary MSE of the steady-state filter on MODEL: none (" << st.summary.message << ")\n";
         }
       }
     }
   }
   if (a.monte_carlo > 0) {
     const int T = a.steps;
-    const KalmanSchedule design_schedule = ComputeKalmanSchedule(design, T);
+    const KalmanSchedule design_schedule = ComputeKalmanSchedule(design, KalmanScheduleOptions{T});
     const LinearFilter f = KalmanAsLinearFilter(design, design_schedule);
     PerformanceOptions po;
     po.steps = T;
@@ -223,7 +223,7 @@ int RunAnalyze(const AnalyzeArgs& a) {
     progress.Finish();
     const bool mismatch = !a.design.empty();
     KalmanSchedule optimal;
-    if (mismatch) optimal = ComputeKalmanSchedule(truth, T);
+    if (mismatch) optimal = ComputeKalmanSchedule(truth, KalmanScheduleOptions{T});
     std::cout << "time-varying Kalman filter" << (mismatch ? " designed on " + a.design : "")
               << ", true MSE tr E[e_k e_k^T]: exact (engine) vs Monte Carlo (" << mc.runs << " runs, seed " << a.seed
               << ")\n     k        exact  monte carlo      std.err       z";
@@ -301,10 +301,12 @@ int RunMismatch(const MismatchArgs& a) {
   const ModelStep design = *model.step(1);
   const ErrorRanges ranges = LoadErrorRanges(a.ranges, design);
   const PatelTodaBounds b = ComputePatelTodaBounds(design, ranges);
+  b.summary.RequireOk();
   ErrorBoxSearchOptions so;
   so.refine = !a.no_refine;
   const ErrorBoxSearch box = SearchErrorBox(design, ranges, MismatchOptions(), so);
-  const LinearFilter f = ConstantGainFilter(design, b.terms.filter_gain, model.m0());
+  box.summary.RequireOk();
+  const LinearFilter f = ConstantGainAsLinearFilter(design, b.terms.filter_gain, model.m0());
   const StationaryPerformance engine = ExactStationaryPerformance(model, f);
   const DareSolution dare = SolveFilterDare(design.A, design.C, design.Q, design.R);
   nlohmann::ordered_json j;
@@ -362,7 +364,7 @@ int RunMismatch(const MismatchArgs& a) {
   }
   if (b.lemma) {
     std::cout << "  Lemma: |U|_s <= " << b.lemma->beta << " (x = " << b.lemma->x << ", kappa = " << b.lemma->kappa
-              << ", sigma = " << b.lemma->sigma << ")" << (b.lemma->applies ? "" : ": " + b.lemma->message) << "\n";
+              << ", sigma = " << b.lemma->sigma << ")" << (b.lemma->applies() ? "" : ": " + b.lemma->summary.message) << "\n";
     bounds["lemma"] = {{"beta", b.lemma->beta},
                        {"beta_printed", b.lemma->beta_printed},
                        {"x", b.lemma->x},

@@ -164,11 +164,11 @@ int Dare(const std::string& dir, int n, int reps) {
   kfx::WriteNpyMatrix(dir + "/" + p + "X_sb02od.npy", X);
   std::cout << "{\"kfx\": " << JsonList(t_kfx) << ", \"sb02od\": " << JsonList(t_slicot)
             << ", \"paired_ratio\": " << JsonList(ratio) << ", \"sb02od_info\": " << info << ", \"kfx_status\": \""
-            << kfx::ToString(sol.summary.status) << "\", \"kfx_method\": \"" << kfx::ToString(sol.summary.method_used)
-            << "\", \"kfx_steps\": " << sol.summary.iterations << ", \"kfx_refine\": " << sol.summary.refinement_steps
-            << ", \"kfx_lyapunov_certified\": " << (sol.summary.lyapunov_certified ? "true" : "false")
-            << ", \"kfx_eigenvalues_exact\": " << (sol.summary.eigenvalues_exact ? "true" : "false")
-            << ", \"kfx_rho_reported\": " << Num(sol.summary.closed_loop_spectral_radius)
+            << kfx::ToString(sol.summary.termination) << "\", \"kfx_method\": \"" << kfx::ToString(sol.method_used)
+            << "\", \"kfx_steps\": " << sol.summary.iterations << ", \"kfx_refine\": " << sol.refinement_steps
+            << ", \"kfx_lyapunov_certified\": " << (sol.lyapunov_certified ? "true" : "false")
+            << ", \"kfx_eigenvalues_exact\": " << (sol.eigenvalues_exact ? "true" : "false")
+            << ", \"kfx_rho_reported\": " << Num(sol.closed_loop_spectral_radius)
             << ", \"kfx_residual\": " << Num(sol.summary.relative_residual) << "}\n";
   return 0;
 }

@@ -26,6 +26,8 @@
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
 #include "kfx/progress.hpp"
+#include "kfx/simulation.hpp"
+#include "kfx/summary.hpp"
 #include "kfx/step_schedule.hpp"
 
 namespace kfx {
@@ -203,7 +205,13 @@ enum class CoupledFilterKind {
   kBanded,              ///< projection at the predict step, O(n c^3)
   kFull,                ///< the Kalman filter of the stacked system, O((cn)^3)
 };
+/// "block-diagonal", "block-diagonal-naive", "banded", "full".
 const char* ToString(CoupledFilterKind kind);
+template <>
+struct EnumValues<CoupledFilterKind> {
+  static constexpr CoupledFilterKind kAll[] = {CoupledFilterKind::kBlockDiagonal, CoupledFilterKind::kBlockDiagonalNaive,
+                                               CoupledFilterKind::kBanded, CoupledFilterKind::kFull};
+};
 
 /// A running filter of one of the kinds above: x_k = F_k x_{k-1} + K_k (y_k - H_k F_k x_{k-1}).
 /// The block-diagonal kinds also give the coupling-input posterior N(mu_u, Sigma_u).
@@ -245,13 +253,21 @@ struct CoupledRun {
   TimeSeries coupling;    ///< T x r: mu_u,k (block-diagonal kinds; empty otherwise)
   Eigen::VectorXd trace;  ///< length T+1: trace of the filter's own covariance
 };
+struct CoupledFilterOptions {
+  /// Number of steps T: RunCoupledFilter runs min(T, rows of y) (negative: all rows of y);
+  /// CoupledFilterAsLinearFilter needs T >= 0 (within the system's horizon).
+  int steps = -1;
+  ProgressCallback progress;
+};
+
 /// Runs a filter over measurements y ((T, n d), row k-1 = y_k). @throws kfx::Error on shapes.
 CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind, const TimeSeries& y,
-                            const ProgressCallback& progress = nullptr);
+                            const CoupledFilterOptions& options = CoupledFilterOptions());
 
-/// The filter as a kfx::LinearFilter (dense Phi_k = (I - K_k H_k) F_k, K_k) over `steps` steps, for
-/// the exact-performance engine: its true error on any model (ExactPerformance). Moderate n only.
-LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind, int steps);
+/// The filter as a kfx::LinearFilter (dense Phi_k = (I - K_k H_k) F_k, K_k) over options.steps steps,
+/// for the exact-performance engine: its true error on any model (ExactPerformance). Moderate n only.
+LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind,
+                                         const CoupledFilterOptions& options);
 
 /// Draws x_0 and (x_k, y_k), k = 1..steps, per block in O(n (c + r)) per step.
 struct CoupledTrajectory {
@@ -259,7 +275,8 @@ struct CoupledTrajectory {
   TimeSeries y;  ///< T x (n d)
   TimeSeries u;  ///< T x r
 };
-CoupledTrajectory SimulateCoupled(const CoupledSystem& system, int steps, std::uint64_t seed);
+/// options.steps: T (negative: the system's horizon).
+CoupledTrajectory SimulateCoupled(const CoupledSystem& system, const SimulationOptions& options);
 
 // ---- Steady state and analysis (time-invariant) ---------------------------------------------------
 
@@ -271,28 +288,29 @@ struct SteadyStateOptions {
   bool IsValid(std::string* error) const;
 };
 
-struct SteadyStateSummary {
-  bool converged = false;
-  int iterations = 0;
-  double relative_change = 0.0;  ///< of the last iteration
-  std::string message;
-  std::string BriefReport() const;
-};
-
 /// P~_+ of eq. (19) (update-step form) by iterating the O(n r^2) step from P~_{0|0} = 0, which by
 /// the proof of Prop. 2.1 is non-decreasing and converges when (F, H) is detectable and Q > 0.
 struct BlockDiagonalSteadyState {
   Eigen::MatrixXd P_filt;  ///< c x (n c): P~_+
   BlockDiagonalGain gain;  ///< the limiting gain
-  SteadyStateSummary summary;
+  /// kConverged (relative_change <= tolerance), kNotConverged (max_iterations), kFailed (diverged),
+  /// kLostDefiniteness (some H P H^T + R not positive definite); iterations, relative_change.
+  Summary summary;
 };
-/// @throws kfx::Error on an invalid step or options. Non-convergence is reported in summary.
+/// @throws kfx::Error on an invalid step or options. Numerical outcomes are in summary.
 BlockDiagonalSteadyState SolveBlockDiagonalSteadyState(const CoupledStep& s,
                                                        const SteadyStateOptions& options = SteadyStateOptions());
 
 /// P_+(D{V + G U G^T}) of the banded filter: one DARE per subsystem (packed c x (n c)); its gain
-/// blocks c x (n d). @throws kfx::NumericalError if a subsystem DARE fails.
-BandedCovarianceStep SolveBandedSteadyState(const CoupledStep& s);
+/// blocks c x (n d).
+struct BandedSteadyState {
+  Eigen::MatrixXd P_filt;  ///< c x (n c)
+  Eigen::MatrixXd K;       ///< c x (n d) packed gain blocks
+  /// kConverged, or the termination of the first subsystem DARE that fails (message names the block).
+  Summary summary;
+};
+/// @throws kfx::Error on an invalid step. Numerical outcomes are in summary.
+BandedSteadyState SolveBandedSteadyState(const CoupledStep& s);
 
 /// Prop. 2.2 (004 Appendix A.2): the constants and the bounds, with Q = V + G U G^T, as printed and
 /// as corrected by kfx. The printed bounds fail on random systems (tests/block_diagonal_test.cpp);
@@ -327,8 +345,10 @@ struct Proposition22 {
   bool part2_corrected_applies = false;
   double part2_corrected_bound = 0.0;  ///< on ||Delta P_-||_F, block-diagonal and full filters
   double closed_loop_corrected_bound = 0.0;
+  /// kConverged, or the termination of the first DARE that fails (the constants are then incomplete).
+  Summary summary;
 };
-/// @throws kfx::Error on invalid input; kfx::NumericalError if a subsystem DARE fails.
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
 Proposition22 ComputeProposition22(const CoupledStep& s);
 
 // ---- Identical subsystems: an exact reduction for any n -------------------------------------------
@@ -365,10 +385,12 @@ struct IdenticalAnalysis {
   /// True stationary error covariances E[e e^T] of each filter's steady-state gain on the true
   /// system (empty X when the filter is unstable on a mode). The full filter's equals full_P.
   KroneckerStructured block_true, banded_true, full_true;
-  SteadyStateSummary block_summary;
+  Summary block_summary;  ///< the block-diagonal steady-state iteration (as SolveBlockDiagonalSteadyState)
+  /// kConverged, or the termination of the first DARE that fails (the later fields are then not set).
+  Summary summary;
 };
 /// Everything of Sec. 3.1 for n identical subsystems, in O(c^3) per iteration independent of n.
-/// @throws kfx::Error on invalid input; kfx::NumericalError when a DARE fails.
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary and block_summary.
 IdenticalAnalysis AnalyzeIdenticalSubsystems(const IdenticalSubsystems& sys, Eigen::Index n,
                                              const SteadyStateOptions& options = SteadyStateOptions());
 

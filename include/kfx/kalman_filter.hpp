@@ -19,6 +19,7 @@
 #include "kfx/filter_health.hpp"
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
+#include "kfx/enum_text.hpp"
 #include "kfx/progress.hpp"
 
 namespace kfx {
@@ -33,6 +34,12 @@ enum class CovarianceUpdateForm {
   kJoseph,    ///< (I - K C) P (I - K C)^T + K R K^T, evaluated in O(n^2 m); PSD-preserving. Default.
   kStandard,  ///< P - K C P (cheaper in nothing here, kept for comparison studies).
 };
+/// "joseph", "standard".
+const char* ToString(CovarianceUpdateForm form);
+template <>
+struct EnumValues<CovarianceUpdateForm> {
+  static constexpr CovarianceUpdateForm kAll[] = {CovarianceUpdateForm::kJoseph, CovarianceUpdateForm::kStandard};
+};
 
 /// How the covariance is represented and propagated (src/robust_filter.cpp, docs/robustness.md).
 /// All forms give the same gains in exact arithmetic; they differ in rounding.
@@ -41,6 +48,14 @@ enum class FilterForm {
   kSquareRoot,    ///< a square-root factor of P, propagated by QR of the pre-arrays (as SLICOT FB01QD)
   kUD,            ///< Bierman-Thornton: P = U D U^T (Bierman update, Thornton MWGS time update)
   kInformation,   ///< the information matrix P^{-1} (needs P0 > 0, and A_k invertible or Q_k > 0)
+};
+/// "conventional", "sqrt", "ud", "information" (the CLI's --form names the conventional form by its
+/// update form, "joseph" or "standard").
+const char* ToString(FilterForm form);
+template <>
+struct EnumValues<FilterForm> {
+  static constexpr FilterForm kAll[] = {FilterForm::kConventional, FilterForm::kSquareRoot, FilterForm::kUD,
+                                        FilterForm::kInformation};
 };
 
 struct KalmanFilterOptions {
@@ -148,7 +163,14 @@ struct KalmanSchedule {
   std::vector<Eigen::MatrixXd> P_pred;       ///< index k = 0..T (P_pred[0] = P0)
   std::vector<Eigen::MatrixXd> P_filt;       ///< index k = 0..T (P_filt[0] = P0)
 };
-KalmanSchedule ComputeKalmanSchedule(const Model& model, int steps, const KalmanFilterOptions& options = {});
+struct KalmanScheduleOptions {
+  int steps = -1;  ///< T (negative: the model's horizon)
+  KalmanFilterOptions filter;
+  ProgressCallback progress;
+};
+/// @throws kfx::Error on invalid options or steps beyond the horizon; kfx::NumericalError (a recursion)
+///         when a step's covariance cannot be computed.
+KalmanSchedule ComputeKalmanSchedule(const Model& model, const KalmanScheduleOptions& options = {});
 
 /// The Kalman filter as a linear recursion z_k = Phi_k z_{k-1} + K_k y_k with z = x_{k|k}:
 /// Phi_k = (I - K_k C_k) A_k, K_k the filter gain, O = I, z_0 = m0.
@@ -156,7 +178,7 @@ LinearFilter KalmanAsLinearFilter(const Model& model, const KalmanSchedule& sche
 
 /// A time-invariant filter with a constant filter gain K_f (e.g. the steady-state gain from
 /// SolveFilterDare): Phi = (I - K_f C) A, K = K_f, O = I, z_0 = z0.
-LinearFilter ConstantGainFilter(const ModelStep& design, const Eigen::Ref<const Eigen::MatrixXd>& filter_gain,
-                                const Eigen::Ref<const Eigen::VectorXd>& z0);
+LinearFilter ConstantGainAsLinearFilter(const ModelStep& design, const Eigen::Ref<const Eigen::MatrixXd>& filter_gain,
+                                        const Eigen::Ref<const Eigen::VectorXd>& z0);
 
 }  // namespace kfx

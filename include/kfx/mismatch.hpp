@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "kfx/model.hpp"
+#include "kfx/summary.hpp"
 
 namespace kfx {
 
@@ -60,37 +61,29 @@ struct MismatchOptions {
   bool IsValid(std::string* error) const;
 };
 
-enum class MismatchStatus {
-  kOk,                  ///< stationary P, V, U computed; residuals in the result.
-  kTrueSystemUnstable,  ///< rho(A) >= 1: U (and with it P) has no stationary value.
-  kFilterUnstable,      ///< rho(L A_M) >= 1: the filter's error grows.
-  kDesignDareFailed,    ///< no filter_gain given and the design's DARE failed (message says why).
-  kSolveFailed,         ///< a Lyapunov/Sylvester solve failed (message says which).
-};
-const char* ToString(MismatchStatus status);
-
 /// Stationary solution of (15)-(17) (002 Sec. 3): U from the Lyapunov equation U = A U A^T + G Q G^T
 /// (SolveDiscreteLyapunov), V from the Sylvester equation V = A V (L A_M)^T + A U dC'^T
 /// - G Q G^T (L + K_M dC)^T (SLICOT SB04QD), P from the Lyapunov equation of (15).
 struct StationaryMismatch {
-  MismatchStatus status = MismatchStatus::kSolveFailed;
-  std::string message;
   Eigen::MatrixXd filter_gain;  ///< K_M, n x m
   Eigen::MatrixXd P;            ///< n x n, E[x~ x~^T]: the true error covariance of the filter
   Eigen::MatrixXd V;            ///< n x n, E[x x~^T] (002's sign)
   Eigen::MatrixXd U;            ///< n x n, E[x x^T]
   double trace = 0.0;           ///< tr P, 002's performance index (14)
-  /// Largest relative residual |lhs - rhs|_F / max(|lhs|_F, tiny) of (15), (16), (17).
-  double relative_residual = 0.0;
   double true_spectral_radius = 0.0;    ///< rho(A)
   double filter_spectral_radius = 0.0;  ///< rho(L A_M)
-  bool ok() const { return status == MismatchStatus::kOk; }
+  /// kConverged: stationary P, V, U computed; relative_residual = the largest relative residual
+  /// |lhs - rhs|_F / max(|lhs|_F, tiny) of (15), (16), (17). kUnstable: rho(A) >= 1 (no stationary U,
+  /// and with it P) or rho(L A_M) >= 1 (the filter's error grows); the message says which. The design
+  /// DARE's termination when no filter_gain was given and that DARE failed ("design filter DARE: ...");
+  /// kFailed / kSingular when a Lyapunov or Sylvester solve failed (message says which).
+  Summary summary;
 };
 
 /// The stationary true error of the filter (10) designed on `design` and run on `truth`.
 /// @param design, truth time-invariant steps of the same dimensions (n, m).
 /// @throws kfx::Error on invalid steps/options (dimensions, a filter_gain that is not n x m).
-/// Numerical outcomes (unstable system or filter, failed solves) are in the status.
+/// Numerical outcomes (unstable system or filter, failed solves) are in summary.
 StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const ModelStep& truth,
                                                   const MismatchOptions& options = MismatchOptions());
 
@@ -106,9 +99,13 @@ struct MismatchSequence {
   Eigen::VectorXd trace;                     ///< length T+1: tr P_k
 };
 
-/// @param steps T >= 0 (within both models' horizons). Models may be time-varying; design and truth
-///        must have the same n, m. @throws kfx::Error on invalid input.
-MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth, int steps);
+struct MismatchSequenceOptions {
+  int steps = 0;  ///< T >= 0 (within both models' horizons)
+};
+/// Models may be time-varying; design and truth must have the same n, m. @throws kfx::Error on invalid
+/// input; kfx::NumericalError (a recursion) if the design's Kalman schedule breaks down.
+MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth,
+                                              const MismatchSequenceOptions& options);
 
 // ---- bounds (002 Secs. 3-5) -------------------------------------------------------------------
 
@@ -146,9 +143,11 @@ struct DesignTerms {
   double nominal_trace = 0.0;   ///< i^T M^{-1} b
   double adjoint_norm = 0.0;    ///< |(M^{-1})^T i|
   double filter_spectral_radius = 0.0;
+  /// kConverged; the design DARE's termination when no gain was given and it failed; kUnstable when
+  /// rho(L A_M) >= 1 (no stationary filter error, no bound); a Lyapunov solve's failure.
+  Summary summary;
 };
-/// @throws kfx::Error on invalid input; kfx::NumericalError if the design's DARE fails (no gain
-///         given) or rho(L A_M) >= 1 (no stationary filter error).
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
 DesignTerms ComputeDesignTerms(const ModelStep& design, const MismatchOptions& options = MismatchOptions());
 
 /// Theorem 1 (22)-(27) for known errors: tr P <= pi_1 = i^T M^{-1} b + |(M^{-1})^T i| |D|, with
@@ -161,8 +160,10 @@ struct Theorem1Result {
   double D_norm = 0.0;          ///< |D|_F
   double identity_trace = 0.0;  ///< i^T M^{-1} (b + cs(D)), equal to tr P
   StationaryMismatch exact;     ///< the stationary (15)-(17) solution used for V and U
+  /// kConverged, or the outcome of the design terms or of the stationary solution (exact.summary).
+  Summary summary;
 };
-/// @throws kfx::NumericalError if the stationary solution does not exist (see exact.status).
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
 Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& errors,
                              const MismatchOptions& options = MismatchOptions());
 
@@ -173,7 +174,7 @@ Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& erro
 double Theorem2Bound(const ModelStep& truth);
 
 /// Theorem 3 (33), dA = 0, dC = 0: tr P <= pi_3 = i^T M^{-1} b + |(M^{-1})^T i| (|L G|_s^2 |dQ| +
-/// |K_M|_s^2 |dR|). @throws kfx::Error unless norms.A == norms.C == 0.
+/// |K_M|_s^2 |dR|). @throws kfx::Error unless norms.A == norms.C == 0 and terms.summary.ok().
 double Theorem3Bound(const DesignTerms& terms, const ErrorNorms& norms);
 
 /// How sum_i |lambda_i(A)|^2 enters Theorem 4's alpha_2 (36).
@@ -208,8 +209,11 @@ struct LemmaBound {
   double UM_norm = 0.0;  ///< |U_M|_s
   /// True when x <= 0.7968..., where (41) is implied by the sound bound.
   bool printed_is_valid = false;
-  bool applies = true;  ///< false if A_M is not diagonalizable or has eigenvalue -1 (message)
-  std::string message;
+  /// kConverged: the Lemma applies and the fields above are set. kUnstable: A_M is not stable
+  /// (max Re lambda(F_M) >= 0); kSingular: A_M has the eigenvalue -1 (no Cayley transform (42));
+  /// kUndecided: A_M is not (numerically) diagonalizable; kFailed: an eigendecomposition failed.
+  Summary summary;
+  bool applies() const { return summary.ok(); }
 };
 /// @throws kfx::Error on an invalid design step or a negative norm.
 LemmaBound LemmaStateBound(const ModelStep& design, double dA_norm);
@@ -223,7 +227,7 @@ struct Theorem5Result {
   double pi5_printed = 0.0;  ///< with (41) as printed (lemma.beta_printed): the paper's number
   LemmaBound lemma;
 };
-/// @throws kfx::Error unless norms.Q == norms.R == 0.
+/// @throws kfx::Error unless norms.Q == norms.R == 0 and terms.summary.ok().
 Theorem5Result Theorem5Bound(const ModelStep& design, const DesignTerms& terms, const ErrorNorms& norms);
 
 /// Theorem 6 (50), dQ = 0, dR = 0: tr P_F >= pi_6 with gamma_1 = (|C_M|_s + |dC|)^2 |R^{-1}|_s
@@ -239,8 +243,9 @@ struct PatelTodaBounds {
   DesignTerms terms;
   std::optional<double> pi3, pi4, pi5, pi5_printed, pi6;
   std::optional<LemmaBound> lemma;
+  Summary summary;  ///< kConverged, or the design terms' outcome (terms.summary; no bound is then set)
 };
-/// @throws kfx::Error on invalid input; kfx::NumericalError as ComputeDesignTerms.
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
 PatelTodaBounds ComputePatelTodaBounds(const ModelStep& design, const ErrorRanges& ranges,
                                        const MismatchOptions& options = MismatchOptions());
 
@@ -276,13 +281,16 @@ struct ErrorBoxSearch {
   int free_entries = 0;
   ErrorBoxExtreme least_upper;     ///< max tr P of the filter designed on `design` (fixed gain)
   ErrorBoxExtreme greatest_lower;  ///< min tr P_F of the optimal filter of the true system
+  /// kConverged (the search ran; each extreme says whether it found a value), or the design DARE's
+  /// termination when no gain was given and it failed (no search); iterations = evaluations.
+  Summary summary;
 };
 
 /// Searches the box of true systems design - Delta, |Delta_ij| <= ranges_ij, for the largest true
 /// error tr P of the design's filter and the smallest optimal error tr P_F (002 Sec. 6, the numbers in
 /// parentheses). Corners first, then a compass search; the result is a value attained in the box
 /// (a lower estimate of the supremum, an upper estimate of the infimum).
-/// @throws kfx::Error on invalid input; kfx::NumericalError as ComputeDesignTerms.
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
 ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges,
                               const MismatchOptions& options = MismatchOptions(),
                               const ErrorBoxSearchOptions& search = ErrorBoxSearchOptions());

@@ -11,12 +11,14 @@
 // Every method of kfx reports its true error through this one engine.
 #include <Eigen/Dense>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
 #include "kfx/progress.hpp"
+#include "kfx/summary.hpp"
 
 namespace kfx {
 
@@ -36,6 +38,7 @@ struct PerformanceResult {
   Eigen::VectorXd weighted_mse;               ///< length T+1: tr(W E[e_k e_k^T])
   TimeSeries bias;                            ///< (T+1) x n: E[e_k]
   std::vector<Eigen::MatrixXd> error_moment;  ///< E[e_k e_k^T], k = 0..T (if stored)
+  Summary summary;                            ///< kConverged; iterations = T; seconds
 };
 
 /// Exact finite-horizon performance of `filter` on `truth` (z_0 deterministic, x_0 ~ N(m0, P0)).
@@ -47,18 +50,29 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
 enum class StationaryMethod {
   kJoint,             ///< Lyapunov equation of the joint (x, z) system: true system and filter stable.
   kErrorCoordinates,  ///< consistent filter (Phi = (I - K C) A, O = I): Lyapunov equation of the error.
-  kNone,              ///< no stationary value: the error grows (see message).
 };
 const char* ToString(StationaryMethod method);
+template <>
+struct EnumValues<StationaryMethod> {
+  static constexpr StationaryMethod kAll[] = {StationaryMethod::kJoint, StationaryMethod::kErrorCoordinates};
+};
+
+struct StationaryPerformanceOptions {
+  /// n x n symmetric PSD weight W of the weighted MSE (empty = I), as in PerformanceOptions.
+  Eigen::MatrixXd weight;
+  bool IsValid(std::string* error) const;
+};
 
 struct StationaryPerformance {
-  StationaryMethod method = StationaryMethod::kNone;
-  std::string message;
-  Eigen::MatrixXd error_cov;       ///< stationary E[e e^T] (empty when method == kNone)
-  double mse = 0.0;                ///< tr error_cov (inf when kNone)
-  double weighted_mse = 0.0;       ///< tr(W error_cov)
-  double lyapunov_residual = 0.0;  ///< relative residual of the Lyapunov solve
-  bool exists() const { return method != StationaryMethod::kNone; }
+  StationaryMethod method = StationaryMethod::kJoint;  ///< the equation solved (when summary.ok())
+  Eigen::MatrixXd error_cov;  ///< stationary E[e e^T] (empty unless summary.ok())
+  double mse = std::numeric_limits<double>::infinity();           ///< tr error_cov (inf when none)
+  double weighted_mse = std::numeric_limits<double>::infinity();  ///< tr(W error_cov)
+  /// kConverged; kUnstable when the error has no stationary value (the filter is unstable, or the true
+  /// system is unstable and the filter is not consistent with it: the message says which; use
+  /// ExactPerformance over a finite horizon); kSingular / kFailed from the Lyapunov solve.
+  /// relative_residual: of the Lyapunov solve.
+  Summary summary;
 };
 
 /// Stationary error of a time-invariant filter on a time-invariant model.
@@ -66,10 +80,12 @@ struct StationaryPerformance {
 /// (rho(Phi) < 1) are stable; otherwise, for a consistent filter (n_z = n, O = I,
 /// Phi = (I - K C) A) with rho((I - K C) A) < 1, the error-coordinates equation
 ///   E = F E F^T + (I - K C) Q (I - K C)^T + K R K^T,  F = (I - K C) A;
-/// otherwise reports kNone (the error is not stationary; use ExactPerformance).
-/// @param weight n x n PSD (empty = I). @throws kfx::Error if either is time-varying or dims differ.
-StationaryPerformance ExactStationaryPerformance(const Model& truth, const LinearFilter& filter,
-                                                 const Eigen::MatrixXd& weight = Eigen::MatrixXd());
+/// otherwise summary.termination is kUnstable (the error is not stationary; use ExactPerformance).
+/// Both equations are solved by the Schur method (LyapunovMethod::kSchur).
+/// @throws kfx::Error if either is time-varying, dimensions differ, or the weight is not n x n PSD.
+StationaryPerformance ExactStationaryPerformance(
+    const Model& truth, const LinearFilter& filter,
+    const StationaryPerformanceOptions& options = StationaryPerformanceOptions());
 
 struct MonteCarloOptions {
   int runs = 1000;                   ///< number of independent runs, >= 2
@@ -89,6 +105,7 @@ struct MonteCarloResult {
   Eigen::VectorXd weighted_mse_std_error;     ///< its standard error
   TimeSeries bias;                            ///< sample mean of e_k
   std::vector<Eigen::MatrixXd> error_moment;  ///< sample mean of e_k e_k^T (if stored)
+  Summary summary;                            ///< kConverged; iterations = runs; seconds
 };
 
 /// Monte Carlo estimate of the same quantities: simulate the true model, run the filter online

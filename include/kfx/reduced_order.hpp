@@ -45,9 +45,11 @@
 #include <string>
 #include <vector>
 
+#include "kfx/enum_text.hpp"
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
 #include "kfx/performance.hpp"
+#include "kfx/summary.hpp"
 
 namespace kfx {
 
@@ -89,6 +91,7 @@ struct ReducedOrderOneStep {
   std::vector<Eigen::MatrixXd> tau;   ///< k = 2..T: the oblique projector tau_k (n x n)
   Eigen::VectorXd cost;               ///< k = 0..T: tr(L_k Q_k L_k^T) by the recursion (entry 0: NaN)
   std::vector<int> singular_steps;    ///< k where L_k M L_k^T was singular (pseudo-inverse used)
+  Summary summary;                    ///< kConverged, iterations = T, seconds; message lists singular_steps
 };
 
 /// @throws kfx::Error on invalid input (weights of the wrong width, steps beyond the horizon).
@@ -98,7 +101,7 @@ ReducedOrderOneStep ComputeReducedOrderOneStep(const Model& model, const WeightS
 /// The one-step filter as a LinearFilter with state z_k = (xi_k, y_k) (n_e + m): step 1 copies the
 /// prior prediction xi_1 (z_0 = (xi_1, 0)), step k >= 2 is z_k = [[A_e, B_e], [0, 0]] z_{k-1} +
 /// [0; I] y_k, output L_k^+ xi_k (compared with x_k). Output at k = 0 is zero (no estimate of x_0).
-LinearFilter ReducedOrderOneStepFilter(const ReducedOrderOneStep& s, const WeightSchedule& L);
+LinearFilter ReducedOrderOneStepAsLinearFilter(const ReducedOrderOneStep& s, const WeightSchedule& L);
 
 /// Two-step reduced-order filter (001 Sec. III). Index k = 1..T.
 struct ReducedOrderTwoStep {
@@ -110,6 +113,7 @@ struct ReducedOrderTwoStep {
   std::vector<Eigen::MatrixXd> tau_f;                   ///< k = 2..T
   Eigen::VectorXd cost_da, cost_f;  ///< k = 0..T: tr(L_k Q^da_k L_k^T), tr(L_k Q^f_k L_k^T) (entry 0: NaN)
   std::vector<int> singular_steps;
+  Summary summary;  ///< kConverged, iterations = T, seconds; message lists singular_steps
 };
 
 ReducedOrderTwoStep ComputeReducedOrderTwoStep(const Model& model, const WeightSchedule& L,
@@ -119,24 +123,33 @@ enum class TwoStepOutput {
   kDataAssimilation,  ///< output L_k^+ xi^da_k (estimate of L_k x_k from y_1..y_k)
   kForecast,          ///< output L_k^+ xi^f_k (estimate of L_k x_k from y_1..y_{k-1})
 };
+/// "data_assimilation", "forecast".
+const char* ToString(TwoStepOutput output);
+template <>
+struct EnumValues<TwoStepOutput> {
+  static constexpr TwoStepOutput kAll[] = {TwoStepOutput::kDataAssimilation, TwoStepOutput::kForecast};
+};
 
 /// The two-step filter as a LinearFilter with state z_k = (xi^da_k, xi^f_k): step 1 is
 /// [[C^f_1, 0], [I, 0]] on z_0 = (xi^f_1, 0); step k >= 2 is [[C^f A^da, 0], [A^da, 0]], K = [D^f; 0].
 /// `output` chooses which estimate is compared with x_k (through L_k^+).
-LinearFilter ReducedOrderTwoStepFilter(const ReducedOrderTwoStep& s, const WeightSchedule& L, TwoStepOutput output);
+LinearFilter ReducedOrderTwoStepAsLinearFilter(const ReducedOrderTwoStep& s, const WeightSchedule& L,
+                                               TwoStepOutput output);
 
 /// J_k = E|L_k x_k - L_k O_k z_k|^2, k = 0..T, from the exact-performance engine's error moments
 /// (ExactPerformance with store_error_moments): tr(L_k E[e_k e_k^T] L_k^T). For the filters above
 /// L_k O_k z_k is the estimator state itself.
-Eigen::VectorXd WeightedCost(const Model& truth, const LinearFilter& filter, const WeightSchedule& L, int steps,
-                             PerformanceResult* result = nullptr);
+/// options.steps: T (negative: the shorter horizon of model and filter); rank_tolerance is not used.
+Eigen::VectorXd WeightedCost(const Model& truth, const LinearFilter& filter, const WeightSchedule& L,
+                             const ReducedOrderOptions& options, PerformanceResult* result = nullptr);
 
 /// The full-order Kalman costs tr(L_k P_{k|k-1} L_k^T) (predictor) and tr(L_k P_{k|k} L_k^T)
 /// (filter), k = 0..T (entry 0 uses P0), from ComputeKalmanSchedule.
 struct KalmanWeightedCosts {
   Eigen::VectorXd predictor, filter;
 };
-KalmanWeightedCosts KalmanCosts(const Model& model, const WeightSchedule& L, int steps);
+/// options.steps: T (negative: the model's horizon).
+KalmanWeightedCosts KalmanCosts(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options);
 
 // ---- subspace estimators (001 Sec. IV) --------------------------------------------------------
 
@@ -171,6 +184,7 @@ struct SubspaceOneStep {
   std::vector<Eigen::MatrixXd> mu;    ///< k = 2..T: the oblique projector mu_k (4.13)
   Eigen::VectorXd cost;               ///< k = 0..T: tr(L_k T Q_k T^T L_k^T) (entry 0: NaN)
   double triangularity_defect = 0.0;  ///< largest TriangularityDefect over the steps
+  Summary summary;                    ///< kConverged, iterations = T, seconds
 };
 
 /// @param T n x n invertible change of basis; the first n_r columns span the estimated subspace.
@@ -179,8 +193,8 @@ SubspaceOneStep ComputeSubspaceOneStep(const Model& model, const Eigen::MatrixXd
                                        const WeightSchedule& L,
                                        const ReducedOrderOptions& options = ReducedOrderOptions());
 
-/// As ReducedOrderOneStepFilter, with output V_r xi_k.
-LinearFilter SubspaceOneStepFilter(const SubspaceOneStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r);
+/// As ReducedOrderOneStepAsLinearFilter, with output V_r xi_k.
+LinearFilter SubspaceOneStepAsLinearFilter(const SubspaceOneStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r);
 
 /// Two-step subspace estimator (4.16)-(4.20). Index k = 1..T.
 struct SubspaceTwoStep {
@@ -191,14 +205,15 @@ struct SubspaceTwoStep {
   std::vector<Eigen::MatrixXd> mu;       ///< k = 1..T
   Eigen::VectorXd cost_da, cost_f;       ///< k = 0..T (entry 0: NaN)
   double triangularity_defect = 0.0;
+  Summary summary;                       ///< kConverged, iterations = T, seconds
 };
 
 SubspaceTwoStep ComputeSubspaceTwoStep(const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r,
                                        const WeightSchedule& L,
                                        const ReducedOrderOptions& options = ReducedOrderOptions());
 
-/// As ReducedOrderTwoStepFilter, with outputs V_r xi.
-LinearFilter SubspaceTwoStepFilter(const SubspaceTwoStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r,
-                                   TwoStepOutput output);
+/// As ReducedOrderTwoStepAsLinearFilter, with outputs V_r xi.
+LinearFilter SubspaceTwoStepAsLinearFilter(const SubspaceTwoStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r,
+                                           TwoStepOutput output);
 
 }  // namespace kfx

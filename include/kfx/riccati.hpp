@@ -12,6 +12,8 @@
 #include <limits>
 #include <string>
 
+#include "kfx/summary.hpp"
+
 namespace kfx {
 
 enum class DareMethod {
@@ -20,17 +22,11 @@ enum class DareMethod {
   kSchur,     ///< generalized Schur (QZ) method on the symplectic pencil (SLICOT SB02OD).
 };
 
-enum class DareStatus {
-  kConverged,        ///< stabilizing solution found; residual in Summary.
-  kNotConverged,     ///< iteration limit reached (doubling) without meeting the tolerance.
-  kNotStabilizing,   ///< a solution was computed but the closed loop is not stable or P is not PSD.
-  kNotDetectable,    ///< (A, C) has an unobservable mode with |lambda| >= 1.
-  kNotStabilizable,  ///< (A, Q^{1/2}) has an unreachable mode on the unit circle.
-  kFailed,           ///< the method broke down (singular pencil / LAPACK error); see message.
-};
-
-const char* ToString(DareStatus status);
 const char* ToString(DareMethod method);
+template <>
+struct EnumValues<DareMethod> {
+  static constexpr DareMethod kAll[] = {DareMethod::kAuto, DareMethod::kDoubling, DareMethod::kSchur};
+};
 
 struct DareOptions {
   DareMethod method = DareMethod::kAuto;
@@ -42,7 +38,7 @@ struct DareOptions {
   /// Decided by the Lyapunov certificate (CertifyStability on A - K_p C and P; docs/riccati.md), by
   /// the eigenvalues (LAPACK DGEEV) only when the certificate cannot decide.
   double stability_margin = 0.0;
-  /// Also compute rho(A - K_p C) (DGEEV) and lambda_min(P) (DSYEVR) exactly for the summary, instead
+  /// Also compute rho(A - K_p C) (DGEEV) and lambda_min(P) (DSYEVR) exactly for the result, instead
   /// of the certificate's bounds. About 10 n^3 flops of mostly non-BLAS-3 work: a third of the solve
   /// time at n = 200.
   bool exact_eigenvalues = false;
@@ -54,17 +50,17 @@ struct DareOptions {
   bool IsValid(std::string* error) const;
 };
 
-struct DareSummary {
-  DareStatus status = DareStatus::kFailed;
-  std::string message;
+struct DareSolution {
+  Eigen::MatrixXd P_pred;          ///< n x n, a priori P_{k|k-1} (the DARE solution).
+  Eigen::MatrixXd P_filt;          ///< n x n, a posteriori P_{k|k} = P - K_f C P.
+  Eigen::MatrixXd filter_gain;     ///< n x m, K_f.
+  Eigen::MatrixXd predictor_gain;  ///< n x m, K_p = A K_f.
+  Eigen::MatrixXd innovation_cov;  ///< m x m, S = C P C^T + R.
   DareMethod method_used = DareMethod::kAuto;  ///< kDoubling or kSchur: what produced the result.
   /// kAuto: doubling failed and Schur was tried (method_used says whose result is returned: Schur's
   /// if it succeeded or, when both failed, the one with the smaller residual).
   bool fell_back = false;
-  int iterations = 0;        ///< doubling steps (0 for kSchur; after a kAuto fallback, doubling's steps).
   int refinement_steps = 0;  ///< accepted refinement steps (DareOptions::refine).
-  /// |P - A P A^T - Q + A P C^T S^{-1} C P A^T|_F / max(|P|_F, tiny), evaluated in double.
-  double relative_residual = 0.0;
   /// rho(A - K_p C) from its eigenvalues (LAPACK DGEEV) if eigenvalues_exact; otherwise the Lyapunov
   /// certificate's upper bound sqrt(1 - s / lambda_max(P)) (s a certified lower bound of
   /// lambda_min(P - (A - K_p C) P (A - K_p C)^T)): then rho(A - K_p C) <= this < 1, typically well
@@ -79,67 +75,81 @@ struct DareSummary {
   /// The Lyapunov certificate proved P > 0 and rho(A - K_p C) < 1 - stability_margin (in floating
   /// point, with the rounding errors of its own computation bounded).
   bool lyapunov_certified = false;
-  double solve_seconds = 0.0;
-  bool ok() const { return status == DareStatus::kConverged; }
-  std::string BriefReport() const;
-  std::string FullReport() const;
-};
-
-struct DareSolution {
-  Eigen::MatrixXd P_pred;          ///< n x n, a priori P_{k|k-1} (the DARE solution).
-  Eigen::MatrixXd P_filt;          ///< n x n, a posteriori P_{k|k} = P - K_f C P.
-  Eigen::MatrixXd filter_gain;     ///< n x m, K_f.
-  Eigen::MatrixXd predictor_gain;  ///< n x m, K_p = A K_f.
-  Eigen::MatrixXd innovation_cov;  ///< m x m, S = C P C^T + R.
-  DareSummary summary;
+  /// How the solve ended. termination: kConverged (stabilizing solution found), kNotConverged (the
+  /// doubling's iteration limit), kNotStabilizing (a solution that is not stabilizing or not PSD),
+  /// kNotDetectable / kNotStabilizable (PBH tests on the eigenvalues of A, run after a failure),
+  /// kFailed (a breakdown: singular pencil, LAPACK error; see message). method "doubling" or "schur",
+  /// iterations = doubling steps (after a kAuto fallback, doubling's), relative_residual =
+  /// |P - A P A^T - Q + A P C^T S^{-1} C P A^T|_F / max(|P|_F, tiny), evaluated in double.
+  Summary summary;
 };
 
 /// Solves the filter DARE above.
 /// @param A n x n, @param C m x n, @param Q n x n symmetric PSD, @param R m x m symmetric PD.
 /// @throws kfx::Error on invalid input (dimensions, symmetry, definiteness, NaN/Inf, options).
-/// Numerical failures (not detectable, not stabilizable, no convergence) are reported in
-/// summary.status, never thrown; the matrices are then those of the last iterate (may be empty).
+/// Numerical outcomes (not detectable, not stabilizable, no convergence) are reported in
+/// summary.termination, never thrown; the matrices are then those of the last iterate (may be empty).
 /// kConverged requires relative_residual <= 1e-8, rho(A - K_p C) < 1 - stability_margin and
 /// lambda_min(P) >= -1e-10 |P|_F: proven by CertifyStability (P > 0 then), or, when the certificate
-/// cannot decide, read from the eigenvalues (DGEEV, DSYEVR). On failure, PBH rank tests on the eigenvalues of A refine
-/// the status to kNotDetectable / kNotStabilizable when they apply. n = 0 is allowed (empty results).
+/// cannot decide, read from the eigenvalues (DGEEV, DSYEVR). On failure, PBH rank tests on the
+/// eigenvalues of A refine the termination to kNotDetectable / kNotStabilizable when they apply.
+/// n = 0 is allowed (empty results).
 DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eigen::Ref<const Eigen::MatrixXd>& C,
                              const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::Ref<const Eigen::MatrixXd>& R,
                              const DareOptions& options = DareOptions());
 
-/// Relative residual of a candidate DARE solution P (definition in DareSummary::relative_residual).
+/// Relative residual of a candidate DARE solution P (the definition of DareSolution::summary).
 double FilterDareResidual(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eigen::Ref<const Eigen::MatrixXd>& C,
                           const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::Ref<const Eigen::MatrixXd>& R,
                           const Eigen::Ref<const Eigen::MatrixXd>& P);
 
-struct LyapunovSummary {
-  bool ok = false;
-  std::string message;
-  /// |X - A X A^T - Q|_F / max(|X|_F, tiny) (computed only when a summary is requested; NaN if X is
-  /// not finite)
-  double relative_residual = 0.0;
-  double spectral_radius = 0.0;  ///< rho(A)
+enum class LyapunovMethod {
+  kAuto,   ///< kSmith when it converges to a residual <= 1e-13 (stable A, rho below about 0.998), else kSchur.
+  kSchur,  ///< Bartels-Stewart / Barraud on the real Schur form (SLICOT SB03MD); any A without
+           ///< eigenvalue pairs lambda_i lambda_j = 1.
+  kSmith,  ///< the squared Smith iteration (doubling, GEMMs only); stable A only.
+};
+const char* ToString(LyapunovMethod method);
+template <>
+struct EnumValues<LyapunovMethod> {
+  static constexpr LyapunovMethod kAll[] = {LyapunovMethod::kAuto, LyapunovMethod::kSchur, LyapunovMethod::kSmith};
 };
 
-/// Discrete Lyapunov (Stein) equation X = A X A^T + Q, Schur-based (Bartels-Stewart / Barraud via
-/// SLICOT SB03MD); without a summary, a stable A (rho below about 0.998) is solved by the squared
-/// Smith iteration instead (doubling, GEMMs only; accepted if its residual is <= 1e-13, else SB03MD). Solvable when no
-/// two eigenvalues of A have product 1; for stable A (rho < 1) X is the stationary covariance of x_k = A x_{k-1} + w_k
-/// and PSD when Q is.
+struct LyapunovOptions {
+  LyapunovMethod method = LyapunovMethod::kAuto;
+  bool IsValid(std::string* error) const;
+};
+
+struct LyapunovSolution {
+  Eigen::MatrixXd X;  ///< n x n symmetric solution (the last values when the solve failed; may be empty)
+  /// rho(A) from the Schur form (kSchur); NaN when the Smith iteration produced X.
+  double spectral_radius = std::numeric_limits<double>::quiet_NaN();
+  /// termination kConverged, kSingular (eigenvalue pair with lambda_i lambda_j ~= 1, or kSmith on an A
+  /// it cannot handle: rho(A) too close to or above 1), or kFailed (QR failed, overflow); method
+  /// "smith" or "schur"; relative_residual = |X - A X A^T - Q|_F / max(|X|_F, tiny).
+  Summary summary;
+};
+
+/// Discrete Lyapunov (Stein) equation X = A X A^T + Q. Solvable when no two eigenvalues of A have
+/// product 1; for stable A (rho < 1) X is the stationary covariance of x_k = A x_{k-1} + w_k and PSD
+/// when Q is. Squared Smith iteration: X_0 = Q, A_0 = A, X_{j+1} = X_j + A_j X_j A_j^T, A_{j+1} = A_j^2
+/// (about 60 n^3 GEMM flops at rho = 0.95); Schur: SLICOT SB03MD (~30 n^3 flops, mostly BLAS 2).
 /// @param A n x n, @param Q n x n symmetric.
-/// @throws kfx::Error on invalid input, or if the equation is singular (eigenvalue pair with
-///         lambda_i lambda_j = 1), with the spectral radius in the message.
-Eigen::MatrixXd SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A,
-                                      const Eigen::Ref<const Eigen::MatrixXd>& Q, LyapunovSummary* summary = nullptr);
+/// @throws kfx::Error on invalid input. A singular equation is summary.termination kSingular.
+LyapunovSolution SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                       const Eigen::Ref<const Eigen::MatrixXd>& Q,
+                                       const LyapunovOptions& options = LyapunovOptions());
 
 /// Result of CertifyStability.
 struct StabilityCertificate {
-  bool certified = false;  ///< proven: X > 0 and rho(F) < 1 (then also rho(F) <= spectral_radius_bound)
   /// rho(F) <= this when certified (1 if only rho(F) < 1 was proven; +inf when not certified).
   double spectral_radius_bound = std::numeric_limits<double>::infinity();
   /// lambda_min(X) >= lambda_min(X - F X F^T) >= this when certified (0 if only > 0 was proven).
   double min_eigenvalue_bound = 0.0;
-  std::string message;  ///< why not certified, or what was proven
+  /// termination kConverged: proven X > 0 and rho(F) < 1 (then also rho(F) <= spectral_radius_bound);
+  /// kUndecided: not proven (the message says which test failed); method "Lyapunov certificate".
+  Summary summary;
+  bool certified() const { return summary.ok(); }
 };
 
 /// Lyapunov certificate of discrete-time stability: if X = X^T > 0 and M = X - F X F^T > s I with

@@ -39,15 +39,20 @@ struct Trajectory {
   TimeSeries y;  ///< T x m: row k-1 is y_k.
 };
 
-/// Draws x_0 ~ N(m0, P0) and then x_k, y_k for k = 1..steps.
-/// @param steps number of steps (negative: the model's horizon).
-/// @throws kfx::Error if steps exceeds the model's horizon.
-Trajectory Simulate(const Model& model, int steps, std::uint64_t seed);
+struct SimulationOptions {
+  int steps = -1;          ///< number of steps T (negative: the model's horizon)
+  std::uint64_t seed = 1;  ///< the generator's seed (not used by the overload that takes an Rng)
+};
 
-/// Draws the trajectory with an Rng the caller owns (used by batch and Monte Carlo runners).
-Trajectory Simulate(const Model& model, int steps, Rng& rng);
+/// Draws x_0 ~ N(m0, P0) and then x_k, y_k for k = 1..T.
+/// @throws kfx::Error if options.steps exceeds the model's horizon.
+Trajectory Simulate(const Model& model, const SimulationOptions& options = SimulationOptions());
 
-/// `runs` independent trajectories; run i uses Rng(Rng::StreamSeed(seed, i)).
-std::vector<Trajectory> SimulateBatch(const Model& model, int steps, int runs, std::uint64_t seed);
+/// Draws the trajectory with an Rng the caller owns (used by batch and Monte Carlo runners);
+/// options.seed is not used.
+Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& rng);
+
+/// `runs` independent trajectories; run i uses Rng(Rng::StreamSeed(options.seed, i)).
+std::vector<Trajectory> SimulateBatch(const Model& model, int runs, const SimulationOptions& options);
 
 }  // namespace kfx

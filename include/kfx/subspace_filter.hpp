@@ -104,18 +104,21 @@ struct SubspaceFilterSchedule {
   std::vector<int> pinv_rank;               ///< rank used for S~_k^+, k = 0..T
   // The last step T (the converged values when converged):
   Eigen::MatrixXd K, Q, P_final, P_pred, S, S_tilde, V, M_final;
-  int steps = 0;             ///< T
-  bool converged = false;    ///< the gain and output map met the tolerance
-  int converged_at = -1;     ///< first step of the final run of `patience` small changes
-  double last_change = 0.0;  ///< max of the two relative changes at step T
+  int steps = 0;          ///< T: the steps computed (fewer than asked for when the schedule failed)
+  int converged_at = -1;  ///< first step of the final run of `patience` small changes
   /// max_k |P_k - P_k^{(20)}|_F / max(|P_k|_F, tiny) when rde_check (else 0).
   double rde_max_relative_difference = 0.0;
-  double seconds = 0.0;
+  /// kConverged: the gain and output map met the tolerance (also in a run of options.steps >= 0 steps
+  /// that settled); kNotConverged: they did not within the steps run; kLostDefiniteness (C P~_k C^T + R
+  /// not positive definite) or kFailed (eigendecomposition of S~_k) at step steps + 1, the schedule
+  /// then holding steps 0..steps. relative_change: the max of the two relative changes at step T;
+  /// iterations = T; seconds.
+  Summary summary;
 };
 
 /// The offline part of Algorithm 2.3 for a time-invariant true step (A, Q = B U B^T, C, R) and prior
 /// covariance S0 (N x N PSD; 000's S_0 = P_0).
-/// @throws kfx::Error on invalid input (shapes, subspace, options).
+/// @throws kfx::Error on invalid input (shapes, subspace, options). Numerical outcomes are in summary.
 SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, const Eigen::MatrixXd& S0,
                                                      const Subspace& subspace,
                                                      const SubspaceFilterOptions& options = SubspaceFilterOptions());
@@ -128,9 +131,9 @@ LinearFilter SubspaceFilterAsLinearFilter(const ModelStep& truth, const Subspace
 
 /// The converged (time-invariant) filter from the schedule's last K, Q:
 /// Phi = Pi (A - K C A) Q, gain Pi K, O = Q, z_0 = Pi m0.
-LinearFilter ConvergedSubspaceFilter(const ModelStep& truth, const Subspace& subspace,
-                                     const SubspaceFilterSchedule& schedule,
-                                     const Eigen::Ref<const Eigen::VectorXd>& m0);
+LinearFilter ConvergedSubspaceFilterAsLinearFilter(const ModelStep& truth, const Subspace& subspace,
+                                                   const SubspaceFilterSchedule& schedule,
+                                                   const Eigen::Ref<const Eigen::VectorXd>& m0);
 
 /// Sec. 6.1: Q^ = Pi^* + (I - Pi_s) S Pi^T (Pi S Pi^T)^+ (E[x | Pi x] = Q^ Pi x) and the covariance
 /// V^ of x - Q^ Pi x from the stationary state covariance S; the approximate reduced model
@@ -140,14 +143,18 @@ struct ApproximateSubspaceFilter {
   Eigen::MatrixXd Q_hat, V_hat;  ///< N x n, N x N
   Eigen::MatrixXd A_r, Q_r, C_r;
   DareSolution dare;
-  Eigen::MatrixXd Phi, gain;  ///< n x n, n x m
+  Eigen::MatrixXd Phi, gain;  ///< n x n, n x m (empty unless summary.ok())
+  /// kConverged; the reduced DARE's termination when it fails (message "reduced filter DARE: ..."),
+  /// kLostDefiniteness when Q_r is not PSD beyond round-off, kFailed when an eigendecomposition fails.
+  Summary summary;
 };
 /// @param measurement_noise_from_residual also add C V^ C^T to R (an extra reading; 000 prints R).
-/// @throws kfx::Error on invalid input; kfx::NumericalError if the reduced DARE fails.
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
 ApproximateSubspaceFilter ComputeApproximateSubspaceFilter(const ModelStep& truth, const Eigen::MatrixXd& S,
                                                            const Subspace& subspace,
                                                            bool measurement_noise_from_residual = false,
                                                            const BlockOperator& apply_A = BlockOperator());
+/// @throws kfx::Error unless approx.summary.ok().
 LinearFilter ApproximateSubspaceFilterAsLinearFilter(const ApproximateSubspaceFilter& approx,
                                                      const Eigen::Ref<const Eigen::VectorXd>& z0);
 
@@ -175,9 +182,12 @@ struct DiscretizationBounds {
   double rho_reduced_filter = 0.0;   ///< rho(Pi (A - K_inf C A) Q_inf), the online recursion
   Eigen::MatrixXd P_full;            ///< P^(F) (filtered, kfx matrix)
   Eigen::MatrixXd P_b;               ///< P^(b)
+  /// kConverged; the termination of the full-state DARE or of (23)'s DARE with W^(b) when one fails
+  /// (the fields after trace_M_inf are then not set). L, L_tilde are +inf when their Phi is unstable.
+  Summary summary;
 };
 /// @param S the stationary state covariance (Lyapunov). Dense; intended for N up to a few hundred.
-/// @throws kfx::Error on invalid input; kfx::NumericalError if a DARE fails.
+/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
 DiscretizationBounds ComputeDiscretizationBounds(const ModelStep& truth, const Eigen::MatrixXd& S,
                                                  const Subspace& subspace, const SubspaceFilterSchedule& schedule);
 

@@ -428,9 +428,9 @@ def approximate_subspace_filter_as_linear_filter(approx: ApproximateSubspaceFilt
 
 def block_diagonal_to_dense(blocks: numpy.ndarray, block_cols: int) -> numpy.ndarray: ...
 
-def constant_gain_filter(design: ModelStep, filter_gain: numpy.ndarray, z0: numpy.ndarray) -> LinearFilter: """Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain)."""
+def constant_gain_as_linear_filter(design: ModelStep, filter_gain: numpy.ndarray, z0: numpy.ndarray) -> LinearFilter: """Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain)."""
 
-def converged_subspace_filter(truth: ModelStep, subspace: Subspace, schedule: SubspaceFilterSchedule, m0: numpy.ndarray) -> LinearFilter: ...
+def converged_subspace_filter_as_linear_filter(truth: ModelStep, subspace: Subspace, schedule: SubspaceFilterSchedule, m0: numpy.ndarray) -> LinearFilter: ...
 
 def coupled_filter_as_linear_filter(system: CoupledSystem, kind: str, steps: int) -> LinearFilter: """The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance."""
 
@@ -484,11 +484,11 @@ def projection_adjoint(subspace: Subspace) -> numpy.ndarray: """Pi^* = W^{-1} Pi
 
 def reduced_order_one_step(model: Model, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> ReducedOrderOneStep: """001 Sec. II: the one-step reduced-order filter (offline part)."""
 
-def reduced_order_one_step_filter(schedule: ReducedOrderOneStep, L: WeightSchedule) -> LinearFilter: """The one-step filter as a kfx.LinearFilter (output L_k^+ xi_k)."""
+def reduced_order_one_step_as_linear_filter(schedule: ReducedOrderOneStep, L: WeightSchedule) -> LinearFilter: """The one-step filter as a kfx.LinearFilter (output L_k^+ xi_k)."""
 
 def reduced_order_two_step(model: Model, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> ReducedOrderTwoStep: """001 Sec. III: the two-step (data assimilation + forecast) filter."""
 
-def reduced_order_two_step_filter(schedule: ReducedOrderTwoStep, L: WeightSchedule, output: str = 'data_assimilation') -> LinearFilter: ...
+def reduced_order_two_step_as_linear_filter(schedule: ReducedOrderTwoStep, L: WeightSchedule, output: str = 'data_assimilation') -> LinearFilter: ...
 
 def reproduce(paper: str, quick: bool = False, out_dir: str = '') -> list: """A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data for figures goes (kfx.plots.render(out_dir) draws them)."""
 
@@ -540,11 +540,11 @@ def subspace_from_basis(basis: numpy.ndarray, gram: numpy.ndarray) -> Subspace: 
 
 def subspace_one_step(model: Model, T: numpy.ndarray, n_r: int, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> SubspaceOneStep: """001 Sec. IV (4.10)-(4.13): the one-step subspace estimator."""
 
-def subspace_one_step_filter(schedule: SubspaceOneStep, T: numpy.ndarray, n_r: int) -> LinearFilter: ...
+def subspace_one_step_as_linear_filter(schedule: SubspaceOneStep, T: numpy.ndarray, n_r: int) -> LinearFilter: ...
 
 def subspace_two_step(model: Model, T: numpy.ndarray, n_r: int, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> SubspaceTwoStep: """001 (4.16)-(4.20): the two-step subspace estimator."""
 
-def subspace_two_step_filter(schedule: SubspaceTwoStep, T: numpy.ndarray, n_r: int, output: str = 'data_assimilation') -> LinearFilter: ...
+def subspace_two_step_as_linear_filter(schedule: SubspaceTwoStep, T: numpy.ndarray, n_r: int, output: str = 'data_assimilation') -> LinearFilter: ...
 
 def theorem1_bound(design: ModelStep, errors: ModelingErrors) -> dict: """002 Theorem 1: tr P <= pi1 for known errors (26 corrected)."""
 

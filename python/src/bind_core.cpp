@@ -6,6 +6,7 @@
 
 #include "bindings.hpp"
 #include "kfx/discretize.hpp"
+#include "kfx/enum_text.hpp"
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/linear_filter.hpp"
@@ -14,6 +15,7 @@
 #include "kfx/reproduce.hpp"
 #include "kfx/riccati.hpp"
 #include "kfx/simulation.hpp"
+#include "kfx/summary.hpp"
 #include "kfx/validation.hpp"
 
 namespace kfx::python {
@@ -223,18 +225,7 @@ class PyKalmanFilter {
   double log_likelihood_ = 0.0;
 };
 
-CovarianceUpdateForm ParseUpdateForm(const std::string& s) {
-  if (s == "joseph") return CovarianceUpdateForm::kJoseph;
-  if (s == "standard") return CovarianceUpdateForm::kStandard;
-  throw Error("update_form: expected 'joseph' or 'standard', got '" + s + "'");
-}
-
-DareMethod ParseDareMethod(const std::string& s) {
-  if (s == "auto") return DareMethod::kAuto;
-  if (s == "doubling") return DareMethod::kDoubling;
-  if (s == "schur") return DareMethod::kSchur;
-  throw Error("method: expected 'auto', 'doubling' or 'schur', got '" + s + "'");
-}
+CovarianceUpdateForm ParseUpdateForm(const std::string& s) { return ParseEnum<CovarianceUpdateForm>("update_form", s); }
 
 py::dict ItemToDict(const std::string& paper, const ReproduceItem& it) {
   py::dict d;
@@ -253,10 +244,41 @@ py::dict ItemToDict(const std::string& paper, const ReproduceItem& it) {
 
 #define KFX_RO(cls, field, doc) def_readonly(#field, &cls::field, doc)
 
+void BindSummary(py::module_& m) {
+  py::class_<Summary>(m, "Summary",
+                      "How a solver or long computation ended: the one outcome shape of kfx. Numerical outcomes "
+                      "(no convergence, a singular equation, lost definiteness, an unstable system) are reported "
+                      "here, never raised; invalid input raises kfx.Error.")
+      .def_readonly("computation", &Summary::computation, "what was computed, e.g. 'filter DARE'")
+      .def_property_readonly(
+          "termination", [](const Summary& s) { return std::string(ToString(s.termination)); },
+          "'converged', 'not_converged', 'not_stabilizing', 'not_detectable', 'not_stabilizable', 'unstable', "
+          "'singular', 'lost_definiteness', 'undecided' or 'failed'")
+      .def_property_readonly("ok", &Summary::ok, "termination == 'converged'")
+      .def_readonly("message", &Summary::message)
+      .def_readonly("method", &Summary::method, "the algorithm that produced the result")
+      .def_readonly("iterations", &Summary::iterations)
+      .def_readonly("relative_residual", &Summary::relative_residual, "NaN when not computed")
+      .def_readonly("relative_change", &Summary::relative_change, "an iteration's last relative change (NaN: none)")
+      .def_readonly("seconds", &Summary::seconds)
+      .def_property_readonly(
+          "details",
+          [](const Summary& s) {
+            py::dict d;
+            for (const auto& [key, value] : s.details) d[py::str(key)] = value;
+            return d;
+          },
+          "further named facts of the computation (as strings)")
+      .def("brief_report", &Summary::BriefReport)
+      .def("full_report", &Summary::FullReport)
+      .def("__repr__", &Summary::BriefReport);
+}
+
 void BindCore(py::module_& m) {
   // ---- errors ----
   py::register_exception<Error>(m, "Error", PyExc_ValueError);
   py::register_exception<NumericalError>(m, "NumericalError", PyExc_ArithmeticError);
+  BindSummary(m);
 
   // ---- models ----
   py::class_<ModelStep>(m, "ModelStep",
@@ -323,7 +345,7 @@ void BindCore(py::module_& m) {
   m.def(
       "simulate",
       [](const Model& model, int steps, std::uint64_t seed) {
-        Trajectory t = Simulate(model, steps, seed);
+        Trajectory t = Simulate(model, SimulationOptions{steps, seed});
         return py::make_tuple(t.x, t.y);
       },
       py::arg("model"), py::arg("steps") = -1, py::arg("seed") = 1,
@@ -401,7 +423,8 @@ void BindCore(py::module_& m) {
       .def_property_readonly(
           "P_filt", [](const KalmanSchedule& s) { return Stack(s.P_filt); }, "(T+1, n, n), [0] = P0");
   m.def(
-      "kalman_schedule", [](const Model& model, int steps) { return ComputeKalmanSchedule(model, steps); },
+      "kalman_schedule",
+      [](const Model& model, int steps) { return ComputeKalmanSchedule(model, KalmanScheduleOptions{steps}); },
       py::arg("model"), py::arg("steps") = -1);
 
   // ---- FilterPy-familiar class ----
@@ -456,24 +479,6 @@ void BindCore(py::module_& m) {
       .def("to_model", &PyKalmanFilter::AsModel, "The time-invariant kfx.Model (F, H, Q, R, x, P).");
 
   // ---- solvers ----
-  py::class_<DareSummary>(m, "DareSummary")
-      .def_property_readonly("status", [](const DareSummary& s) { return std::string(ToString(s.status)); })
-      .def_property_readonly("method_used", [](const DareSummary& s) { return std::string(ToString(s.method_used)); })
-      .def_property_readonly("ok", &DareSummary::ok)
-      .def_readonly("message", &DareSummary::message)
-      .def_readonly("fell_back", &DareSummary::fell_back)
-      .def_readonly("iterations", &DareSummary::iterations)
-      .def_readonly("refinement_steps", &DareSummary::refinement_steps)
-      .def_readonly("relative_residual", &DareSummary::relative_residual)
-      .def_readonly("closed_loop_spectral_radius", &DareSummary::closed_loop_spectral_radius)
-      .def_readonly("min_eigenvalue", &DareSummary::min_eigenvalue)
-      .def_readonly("eigenvalues_exact", &DareSummary::eigenvalues_exact,
-                    "True: closed_loop_spectral_radius and min_eigenvalue are eigenvalues; False: the Lyapunov "
-                    "certificate's bounds (rho <= closed_loop_spectral_radius, lambda_min(P) >= min_eigenvalue)")
-      .def_readonly("lyapunov_certified", &DareSummary::lyapunov_certified)
-      .def("brief_report", &DareSummary::BriefReport)
-      .def("full_report", &DareSummary::FullReport)
-      .def("__repr__", &DareSummary::BriefReport);
   py::class_<DareSolution>(m, "DareSolution",
                            "Filter DARE solution. Gains: filter gain K_f = P C^T (C P C^T + R)^{-1} (x_{k|k} = "
                            "x_{k|k-1} + K_f nu_k); predictor gain K_p = A K_f (x_{k+1|k} = A x_{k|k-1} + K_p nu_k).")
@@ -482,13 +487,24 @@ void BindCore(py::module_& m) {
       .def_readonly("filter_gain", &DareSolution::filter_gain, "K_f (n, m)")
       .def_readonly("predictor_gain", &DareSolution::predictor_gain, "K_p = A K_f (n, m)")
       .def_readonly("innovation_cov", &DareSolution::innovation_cov)
-      .def_readonly("summary", &DareSolution::summary);
+      .def_property_readonly(
+          "method_used", [](const DareSolution& s) { return std::string(ToString(s.method_used)); },
+          "'doubling' or 'schur': what produced the result")
+      .def_readonly("fell_back", &DareSolution::fell_back, "method 'auto': doubling failed and Schur was tried")
+      .def_readonly("refinement_steps", &DareSolution::refinement_steps)
+      .def_readonly("closed_loop_spectral_radius", &DareSolution::closed_loop_spectral_radius)
+      .def_readonly("min_eigenvalue", &DareSolution::min_eigenvalue)
+      .def_readonly("eigenvalues_exact", &DareSolution::eigenvalues_exact,
+                    "True: closed_loop_spectral_radius and min_eigenvalue are eigenvalues; False: the Lyapunov "
+                    "certificate's bounds (rho <= closed_loop_spectral_radius, lambda_min(P) >= min_eigenvalue)")
+      .def_readonly("lyapunov_certified", &DareSolution::lyapunov_certified)
+      .def_readonly("summary", &DareSolution::summary, "How the solve ended (kfx.Summary).");
   m.def(
       "solve_filter_dare",
       [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& R,
          const std::string& method, int max_iterations, double tolerance, bool refine, bool exact_eigenvalues) {
         DareOptions o;
-        o.method = ParseDareMethod(method);
+        o.method = ParseEnum<DareMethod>("method", method);
         o.max_iterations = max_iterations;
         o.tolerance = tolerance;
         o.refine = refine;
@@ -499,15 +515,27 @@ void BindCore(py::module_& m) {
       py::arg("max_iterations") = 60, py::arg("tolerance") = 1e-14, py::arg("refine") = true,
       py::arg("exact_eigenvalues") = false,
       "Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's "
-      "solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.status, "
+      "solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, "
       "never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; "
       "exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead.");
   m.def("filter_dare_residual", &FilterDareResidual, py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"),
         py::arg("P"));
+  py::class_<LyapunovSolution>(m, "LyapunovSolution")
+      .def_readonly("X", &LyapunovSolution::X, "the solution (n, n)")
+      .def_readonly("spectral_radius", &LyapunovSolution::spectral_radius, "rho(A) from the Schur form (NaN: Smith)")
+      .def_readonly("summary", &LyapunovSolution::summary, "How the solve ended (kfx.Summary).");
   m.def(
       "solve_discrete_lyapunov",
-      [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q) { return SolveDiscreteLyapunov(A, Q); }, py::arg("A"),
-      py::arg("Q"), "X = A X A^T + Q (SLICOT SB03MD); the convention of scipy.linalg.solve_discrete_lyapunov.");
+      [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const std::string& method) {
+        LyapunovOptions o;
+        o.method = ParseEnum<LyapunovMethod>("method", method);
+        py::gil_scoped_release release;
+        return SolveDiscreteLyapunov(A, Q, o);
+      },
+      py::arg("A"), py::arg("Q"), py::arg("method") = "auto",
+      "X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared "
+      "Smith iteration when it converges, else 'schur'), 'schur' (SLICOT SB03MD) or 'smith'. Returns a "
+      "LyapunovSolution; a singular equation is .summary.termination 'singular', never raised.");
   m.def(
       "spectral_radius", [](const Eigen::MatrixXd& A) { return SpectralRadius(A); }, py::arg("A"));
   m.def("matrix_exponential", &MatrixExponential, py::arg("M"));
@@ -559,10 +587,12 @@ void BindCore(py::module_& m) {
           "The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out).");
   m.def(
       "kalman_as_linear_filter",
-      [](const Model& model, int steps) { return KalmanAsLinearFilter(model, ComputeKalmanSchedule(model, steps)); },
+      [](const Model& model, int steps) {
+        return KalmanAsLinearFilter(model, ComputeKalmanSchedule(model, KalmanScheduleOptions{steps}));
+      },
       py::arg("model"), py::arg("steps") = -1,
       "The Kalman filter of `model` as a LinearFilter: Phi_k = (I - K_k C_k) A_k, gain K_k, z_0 = m0.");
-  m.def("constant_gain_filter", &ConstantGainFilter, py::arg("design"), py::arg("filter_gain"), py::arg("z0"),
+  m.def("constant_gain_as_linear_filter", &ConstantGainAsLinearFilter, py::arg("design"), py::arg("filter_gain"), py::arg("z0"),
         "Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain).");
 
   py::class_<PerformanceResult>(m, "PerformanceResult")
@@ -570,7 +600,8 @@ void BindCore(py::module_& m) {
       .def_readonly("weighted_mse", &PerformanceResult::weighted_mse)
       .def_readonly("bias", &PerformanceResult::bias, "(T+1, n): E[e_k]")
       .def_property_readonly(
-          "error_moment", [](const PerformanceResult& r) { return Stack(r.error_moment); }, "(T+1, n, n)");
+          "error_moment", [](const PerformanceResult& r) { return Stack(r.error_moment); }, "(T+1, n, n)")
+      .def_readonly("summary", &PerformanceResult::summary);
   m.def(
       "exact_performance",
       [](const Model& truth, const LinearFilter& filter, int steps, std::optional<Eigen::MatrixXd> weight,
@@ -587,17 +618,20 @@ void BindCore(py::module_& m) {
       "The exact mean-square error of any linear filter on any true model (the one engine every kfx "
       "method reports through), e_k = x_k - O_k z_k.");
   py::class_<StationaryPerformance>(m, "StationaryPerformance")
-      .def_property_readonly("method", [](const StationaryPerformance& s) { return std::string(ToString(s.method)); })
-      .def_property_readonly("exists", &StationaryPerformance::exists)
-      .def_readonly("message", &StationaryPerformance::message)
+      .def_property_readonly(
+          "method", [](const StationaryPerformance& s) { return std::string(ToString(s.method)); },
+          "'joint' or 'error-coordinates': the equation solved")
       .def_readonly("error_cov", &StationaryPerformance::error_cov)
       .def_readonly("mse", &StationaryPerformance::mse)
       .def_readonly("weighted_mse", &StationaryPerformance::weighted_mse)
-      .def_readonly("lyapunov_residual", &StationaryPerformance::lyapunov_residual);
+      .def_readonly("summary", &StationaryPerformance::summary,
+                    "termination 'converged', or 'unstable' when the error has no stationary value");
   m.def(
       "exact_stationary_performance",
       [](const Model& truth, const LinearFilter& filter, std::optional<Eigen::MatrixXd> weight) {
-        return ExactStationaryPerformance(truth, filter, OrEmpty(weight));
+        StationaryPerformanceOptions o;
+        o.weight = OrEmpty(weight);
+        return ExactStationaryPerformance(truth, filter, o);
       },
       py::arg("truth"), py::arg("filter"), py::arg("weight") = py::none());
   py::class_<MonteCarloResult>(m, "MonteCarloResult")
@@ -607,7 +641,8 @@ void BindCore(py::module_& m) {
       .def_readonly("weighted_mse", &MonteCarloResult::weighted_mse)
       .def_readonly("weighted_mse_std_error", &MonteCarloResult::weighted_mse_std_error)
       .def_readonly("bias", &MonteCarloResult::bias)
-      .def_property_readonly("error_moment", [](const MonteCarloResult& r) { return Stack(r.error_moment); });
+      .def_property_readonly("error_moment", [](const MonteCarloResult& r) { return Stack(r.error_moment); })
+      .def_readonly("summary", &MonteCarloResult::summary);
   m.def(
       "monte_carlo_performance",
       [](const Model& truth, const LinearFilter& filter, int runs, std::uint64_t seed, int steps,

@@ -8,6 +8,7 @@
 #include "kfx/block_diagonal.hpp"
 #include "kfx/continuous.hpp"
 #include "kfx/damped_wave.hpp"
+#include "kfx/enum_text.hpp"
 #include "kfx/error.hpp"
 #include "kfx/mismatch.hpp"
 #include "kfx/reduced_order.hpp"
@@ -23,19 +24,9 @@ py::object OptionalFloat(const std::optional<double>& v) {
   return v ? py::object(py::float_(*v)) : py::object(py::none());
 }
 
-CoupledFilterKind ParseKind(const std::string& s) {
-  if (s == "block-diagonal") return CoupledFilterKind::kBlockDiagonal;
-  if (s == "block-diagonal-naive") return CoupledFilterKind::kBlockDiagonalNaive;
-  if (s == "banded") return CoupledFilterKind::kBanded;
-  if (s == "full") return CoupledFilterKind::kFull;
-  throw Error("kind: expected 'block-diagonal', 'block-diagonal-naive', 'banded' or 'full', got '" + s + "'");
-}
+CoupledFilterKind ParseKind(const std::string& s) { return ParseEnum<CoupledFilterKind>("kind", s); }
 
-TwoStepOutput ParseTwoStepOutput(const std::string& s) {
-  if (s == "data_assimilation") return TwoStepOutput::kDataAssimilation;
-  if (s == "forecast") return TwoStepOutput::kForecast;
-  throw Error("output: expected 'data_assimilation' or 'forecast', got '" + s + "'");
-}
+TwoStepOutput ParseTwoStepOutput(const std::string& s) { return ParseEnum<TwoStepOutput>("output", s); }
 
 WeightSchedule MakeWeights(const py::object& L) {
   if (py::isinstance<py::array>(L) && L.cast<py::array>().ndim() == 2) return WeightSchedule(L.cast<Eigen::MatrixXd>());
@@ -97,23 +88,19 @@ void BindBlockDiagonal(py::module_& m) {
   m.def(
       "coupled_filter_as_linear_filter",
       [](const CoupledSystem& sys, const std::string& kind, int steps) {
-        return CoupledFilterAsLinearFilter(sys, ParseKind(kind), steps);
+        CoupledFilterOptions o;
+        o.steps = steps;
+        return CoupledFilterAsLinearFilter(sys, ParseKind(kind), o);
       },
       py::arg("system"), py::arg("kind"), py::arg("steps"),
       "The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance.");
   m.def(
       "simulate_coupled",
       [](const CoupledSystem& sys, int steps, std::uint64_t seed) {
-        CoupledTrajectory t = SimulateCoupled(sys, steps, seed);
+        CoupledTrajectory t = SimulateCoupled(sys, SimulationOptions{steps, seed});
         return py::make_tuple(t.x, t.y, t.u);
       },
       py::arg("system"), py::arg("steps"), py::arg("seed") = 1, "Returns (x (T+1, n c), y (T, n d), u (T, r)).");
-  py::class_<SteadyStateSummary>(m, "SteadyStateSummary")
-      .def_readonly("converged", &SteadyStateSummary::converged)
-      .def_readonly("iterations", &SteadyStateSummary::iterations)
-      .def_readonly("relative_change", &SteadyStateSummary::relative_change)
-      .def_readonly("message", &SteadyStateSummary::message)
-      .def("__repr__", &SteadyStateSummary::BriefReport);
   py::class_<BlockDiagonalSteadyState>(m, "BlockDiagonalSteadyState")
       .def_readonly("P_filt", &BlockDiagonalSteadyState::P_filt, "c x (n c) packed P~_+ (004 eq. (19))")
       .def_property_readonly(
@@ -163,7 +150,8 @@ void BindBlockDiagonal(py::module_& m) {
       .def_readonly("block_true", &IdenticalAnalysis::block_true)
       .def_readonly("banded_true", &IdenticalAnalysis::banded_true)
       .def_readonly("full_true", &IdenticalAnalysis::full_true)
-      .def_readonly("block_summary", &IdenticalAnalysis::block_summary);
+      .def_readonly("block_summary", &IdenticalAnalysis::block_summary)
+      .def_readonly("summary", &IdenticalAnalysis::summary);
   m.def(
       "analyze_identical_subsystems",
       [](const IdenticalSubsystems& sys, Eigen::Index n) { return AnalyzeIdenticalSubsystems(sys, n); },
@@ -187,15 +175,13 @@ void BindMismatch(py::module_& m) {
         "The true step: A = A_M - dA, C = C_M - dC, Q = Q_M - dQ, R = R_M - dR.");
   m.def("modeling_errors_between", &ModelingErrorsBetween, py::arg("design"), py::arg("truth"));
   py::class_<StationaryMismatch>(m, "StationaryMismatch")
-      .def_property_readonly("status", [](const StationaryMismatch& s) { return std::string(ToString(s.status)); })
-      .def_property_readonly("ok", &StationaryMismatch::ok)
-      .def_readonly("message", &StationaryMismatch::message)
+      .def_readonly("summary", &StationaryMismatch::summary,
+                    "termination 'converged', 'unstable' (true system or filter), the design DARE's, or 'failed'")
       .def_readonly("filter_gain", &StationaryMismatch::filter_gain)
       .def_readonly("P", &StationaryMismatch::P, "E[x~ x~^T], the true error covariance")
       .def_readonly("V", &StationaryMismatch::V)
       .def_readonly("U", &StationaryMismatch::U)
       .def_readonly("trace", &StationaryMismatch::trace)
-      .def_readonly("relative_residual", &StationaryMismatch::relative_residual)
       .def_readonly("true_spectral_radius", &StationaryMismatch::true_spectral_radius)
       .def_readonly("filter_spectral_radius", &StationaryMismatch::filter_spectral_radius);
   m.def(
@@ -210,7 +196,9 @@ void BindMismatch(py::module_& m) {
   m.def(
       "mismatched_covariance_sequence",
       [](const Model& design, const Model& truth, int steps) {
-        MismatchSequence s = MismatchedCovarianceSequence(design, truth, steps);
+        MismatchSequenceOptions o;
+        o.steps = steps;
+        MismatchSequence s = MismatchedCovarianceSequence(design, truth, o);
         py::dict d;
         d["P"] = Stack(s.P);
         d["V"] = Stack(s.V);
@@ -238,6 +226,7 @@ void BindMismatch(py::module_& m) {
         o.filter_gain = OrEmpty(gain);
         PatelTodaBounds b = ComputePatelTodaBounds(design, ranges, o);
         py::dict d;
+        d["summary"] = b.summary;
         d["pi3"] = OptionalFloat(b.pi3);
         d["pi4"] = OptionalFloat(b.pi4);
         d["pi5"] = OptionalFloat(b.pi5);
@@ -254,19 +243,22 @@ void BindMismatch(py::module_& m) {
       },
       py::arg("design"), py::arg("ranges"), py::arg("filter_gain") = py::none(),
       "002 Theorems 3-6 for the ranges (pi3, pi4: plant exact; pi5, pi6: noise exact; None where a theorem "
-      "does not apply). pi5 uses the corrected Lemma bound, pi5_printed (41) as printed.");
+      "does not apply). pi5 uses the corrected Lemma bound, pi5_printed (41) as printed. 'summary': a "
+      "kfx.Summary (when the design's DARE fails, every bound is None and the summary says why).");
   m.def(
       "theorem1_bound",
       [](const ModelStep& design, const ModelingErrors& errors) {
         Theorem1Result r = Theorem1Bound(design, errors);
         py::dict d;
+        d["summary"] = r.summary;
         d["pi1"] = r.pi1;
         d["D_norm"] = r.D_norm;
         d["identity_trace"] = r.identity_trace;
         d["trace"] = r.exact.trace;
         return d;
       },
-      py::arg("design"), py::arg("errors"), "002 Theorem 1: tr P <= pi1 for known errors (26 corrected).");
+      py::arg("design"), py::arg("errors"),
+      "002 Theorem 1: tr P <= pi1 for known errors (26 corrected); 'summary' says whether it exists.");
   m.def("theorem2_bound", &Theorem2Bound, py::arg("truth"), "002 Theorem 2: tr P_F >= pi2 (optimal filter).");
   m.def(
       "search_error_box",
@@ -279,6 +271,7 @@ void BindMismatch(py::module_& m) {
           s = SearchErrorBox(design, ranges, MismatchOptions(), so);
         }
         py::dict d;
+        d["summary"] = s.summary;
         d["free_entries"] = s.free_entries;
         d["least_upper"] = s.least_upper.found ? py::object(py::float_(s.least_upper.value)) : py::object(py::none());
         d["greatest_lower"] =
@@ -332,11 +325,10 @@ void BindContinuous(py::module_& m) {
   m.def("kalman_bucy_covariance", &KalmanBucyCovariance, py::arg("model"), py::arg("T"),
         "P_c(T) of the Kalman-Bucy filter (Hamiltonian exponential and doubling).");
   py::class_<CareSolution>(m, "CareSolution")
-      .def_readonly("ok", &CareSolution::ok)
-      .def_readonly("message", &CareSolution::message)
       .def_readonly("P", &CareSolution::P)
-      .def_readonly("relative_residual", &CareSolution::relative_residual)
-      .def_readonly("closed_loop_max_real", &CareSolution::closed_loop_max_real);
+      .def_readonly("closed_loop_max_real", &CareSolution::closed_loop_max_real)
+      .def_readonly("refinement_steps", &CareSolution::refinement_steps)
+      .def_readonly("summary", &CareSolution::summary);
   m.def("solve_filter_care", &SolveFilterCare, py::arg("model"),
         "CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}.");
   m.def(
@@ -402,12 +394,14 @@ void BindReducedOrder(py::module_& m) {
       .def_property_readonly(
           "Qhat", [](const ReducedOrderOneStep& s) { return Stack(s.Qhat, 1); }, "(T, n, n)")
       .def_readonly("cost", &ReducedOrderOneStep::cost, "tr(L_k Q_k L_k^T), k = 0..T (entry 0 NaN)")
-      .def_readonly("singular_steps", &ReducedOrderOneStep::singular_steps);
+      .def_readonly("singular_steps", &ReducedOrderOneStep::singular_steps)
+      .def_readonly("summary", &ReducedOrderOneStep::summary);
   py::class_<ReducedOrderTwoStep>(m, "ReducedOrderTwoStep")
       .def_readonly("xi1", &ReducedOrderTwoStep::xi1)
       .def_readonly("cost_da", &ReducedOrderTwoStep::cost_da)
       .def_readonly("cost_f", &ReducedOrderTwoStep::cost_f)
-      .def_readonly("singular_steps", &ReducedOrderTwoStep::singular_steps);
+      .def_readonly("singular_steps", &ReducedOrderTwoStep::singular_steps)
+      .def_readonly("summary", &ReducedOrderTwoStep::summary);
   auto opts = [](int steps, double rank_tolerance) {
     ReducedOrderOptions o;
     o.steps = steps;
@@ -421,7 +415,7 @@ void BindReducedOrder(py::module_& m) {
       },
       py::arg("model"), py::arg("L"), py::arg("steps") = -1, py::arg("rank_tolerance") = 1e-10,
       "001 Sec. II: the one-step reduced-order filter (offline part).");
-  m.def("reduced_order_one_step_filter", &ReducedOrderOneStepFilter, py::arg("schedule"), py::arg("L"),
+  m.def("reduced_order_one_step_as_linear_filter", &ReducedOrderOneStepAsLinearFilter, py::arg("schedule"), py::arg("L"),
         "The one-step filter as a kfx.LinearFilter (output L_k^+ xi_k).");
   m.def(
       "reduced_order_two_step",
@@ -431,22 +425,26 @@ void BindReducedOrder(py::module_& m) {
       py::arg("model"), py::arg("L"), py::arg("steps") = -1, py::arg("rank_tolerance") = 1e-10,
       "001 Sec. III: the two-step (data assimilation + forecast) filter.");
   m.def(
-      "reduced_order_two_step_filter",
+      "reduced_order_two_step_as_linear_filter",
       [](const ReducedOrderTwoStep& s, const WeightSchedule& L, const std::string& output) {
-        return ReducedOrderTwoStepFilter(s, L, ParseTwoStepOutput(output));
+        return ReducedOrderTwoStepAsLinearFilter(s, L, ParseTwoStepOutput(output));
       },
       py::arg("schedule"), py::arg("L"), py::arg("output") = "data_assimilation");
   m.def(
       "weighted_cost",
       [](const Model& truth, const LinearFilter& f, const WeightSchedule& L, int steps) {
-        return WeightedCost(truth, f, L, steps);
+        ReducedOrderOptions o;
+        o.steps = steps;
+        return WeightedCost(truth, f, L, o);
       },
       py::arg("truth"), py::arg("filter"), py::arg("L"), py::arg("steps"),
       "J_k = E|L_k x_k - L_k O_k z_k|^2, k = 0..T, from the exact-performance engine.");
   m.def(
       "kalman_costs",
       [](const Model& model, const WeightSchedule& L, int steps) {
-        KalmanWeightedCosts c = KalmanCosts(model, L, steps);
+        ReducedOrderOptions o;
+        o.steps = steps;
+        KalmanWeightedCosts c = KalmanCosts(model, L, o);
         return py::make_tuple(c.predictor, c.filter);
       },
       py::arg("model"), py::arg("L"), py::arg("steps"),
@@ -463,19 +461,21 @@ void BindReducedOrder(py::module_& m) {
   py::class_<SubspaceOneStep>(m, "SubspaceOneStep")
       .def_readonly("xi1", &SubspaceOneStep::xi1)
       .def_readonly("cost", &SubspaceOneStep::cost)
-      .def_readonly("triangularity_defect", &SubspaceOneStep::triangularity_defect);
+      .def_readonly("triangularity_defect", &SubspaceOneStep::triangularity_defect)
+      .def_readonly("summary", &SubspaceOneStep::summary);
   py::class_<SubspaceTwoStep>(m, "SubspaceTwoStep")
       .def_readonly("xi1", &SubspaceTwoStep::xi1)
       .def_readonly("cost_da", &SubspaceTwoStep::cost_da)
       .def_readonly("cost_f", &SubspaceTwoStep::cost_f)
-      .def_readonly("triangularity_defect", &SubspaceTwoStep::triangularity_defect);
+      .def_readonly("triangularity_defect", &SubspaceTwoStep::triangularity_defect)
+      .def_readonly("summary", &SubspaceTwoStep::summary);
   m.def(
       "subspace_one_step",
       [opts](const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r, const WeightSchedule& L, int steps,
              double tol) { return ComputeSubspaceOneStep(model, T, n_r, L, opts(steps, tol)); },
       py::arg("model"), py::arg("T"), py::arg("n_r"), py::arg("L"), py::arg("steps") = -1,
       py::arg("rank_tolerance") = 1e-10, "001 Sec. IV (4.10)-(4.13): the one-step subspace estimator.");
-  m.def("subspace_one_step_filter", &SubspaceOneStepFilter, py::arg("schedule"), py::arg("T"), py::arg("n_r"));
+  m.def("subspace_one_step_as_linear_filter", &SubspaceOneStepAsLinearFilter, py::arg("schedule"), py::arg("T"), py::arg("n_r"));
   m.def(
       "subspace_two_step",
       [opts](const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r, const WeightSchedule& L, int steps,
@@ -483,9 +483,9 @@ void BindReducedOrder(py::module_& m) {
       py::arg("model"), py::arg("T"), py::arg("n_r"), py::arg("L"), py::arg("steps") = -1,
       py::arg("rank_tolerance") = 1e-10, "001 (4.16)-(4.20): the two-step subspace estimator.");
   m.def(
-      "subspace_two_step_filter",
+      "subspace_two_step_as_linear_filter",
       [](const SubspaceTwoStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r, const std::string& output) {
-        return SubspaceTwoStepFilter(s, T, n_r, ParseTwoStepOutput(output));
+        return SubspaceTwoStepAsLinearFilter(s, T, n_r, ParseTwoStepOutput(output));
       },
       py::arg("schedule"), py::arg("T"), py::arg("n_r"), py::arg("output") = "data_assimilation");
   m.def(
@@ -531,8 +531,8 @@ void BindSubspaceFilter(py::module_& m) {
       .def_readonly("Q", &SubspaceFilterSchedule::Q)
       .def_readonly("P_final", &SubspaceFilterSchedule::P_final)
       .def_readonly("steps", &SubspaceFilterSchedule::steps)
-      .def_readonly("converged", &SubspaceFilterSchedule::converged)
       .def_readonly("converged_at", &SubspaceFilterSchedule::converged_at)
+      .def_readonly("summary", &SubspaceFilterSchedule::summary)
       .def_readonly("rde_max_relative_difference", &SubspaceFilterSchedule::rde_max_relative_difference);
   m.def(
       "subspace_filter_schedule",
@@ -552,7 +552,7 @@ void BindSubspaceFilter(py::module_& m) {
       "000 Algorithm 2.3 (offline part): gains K_k and output maps Q_k until convergence (or `steps`).");
   m.def("subspace_filter_as_linear_filter", &SubspaceFilterAsLinearFilter, py::arg("truth"), py::arg("subspace"),
         py::arg("schedule"), py::arg("m0"), "The time-varying subspace filter (z_0 = Pi m0) for exact_performance.");
-  m.def("converged_subspace_filter", &ConvergedSubspaceFilter, py::arg("truth"), py::arg("subspace"),
+  m.def("converged_subspace_filter_as_linear_filter", &ConvergedSubspaceFilterAsLinearFilter, py::arg("truth"), py::arg("subspace"),
         py::arg("schedule"), py::arg("m0"));
   py::class_<ApproximateSubspaceFilter>(m, "ApproximateSubspaceFilter")
       .def_readonly("Q_hat", &ApproximateSubspaceFilter::Q_hat)
@@ -561,7 +561,8 @@ void BindSubspaceFilter(py::module_& m) {
       .def_readonly("Q_r", &ApproximateSubspaceFilter::Q_r)
       .def_readonly("C_r", &ApproximateSubspaceFilter::C_r)
       .def_readonly("Phi", &ApproximateSubspaceFilter::Phi)
-      .def_readonly("gain", &ApproximateSubspaceFilter::gain);
+      .def_readonly("gain", &ApproximateSubspaceFilter::gain)
+      .def_readonly("summary", &ApproximateSubspaceFilter::summary);
   m.def(
       "approximate_subspace_filter",
       [](const ModelStep& truth, const Eigen::MatrixXd& S, const Subspace& sub, bool residual) {
@@ -584,7 +585,8 @@ void BindSubspaceFilter(py::module_& m) {
       .def_readonly("rho_full", &DiscretizationBounds::rho_full)
       .def_readonly("rho_reduced", &DiscretizationBounds::rho_reduced)
       .def_readonly("P_full", &DiscretizationBounds::P_full)
-      .def_readonly("P_b", &DiscretizationBounds::P_b);
+      .def_readonly("P_b", &DiscretizationBounds::P_b)
+      .def_readonly("summary", &DiscretizationBounds::summary);
   m.def("discretization_bounds", &ComputeDiscretizationBounds, py::arg("truth"), py::arg("S"), py::arg("subspace"),
         py::arg("schedule"), "000 Sec. 4: Theorems 4.1, 4.2, Remark 4.3 and the actual error.");
   py::class_<WaveDiscretization>(m, "WaveDiscretization")

@@ -1,6 +1,7 @@
 #include "kfx/performance.hpp"
 #include "core/performance_internal.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -79,6 +80,10 @@ Eigen::MatrixXd ErrorMoment(const Eigen::MatrixXd& Mxx, const Eigen::MatrixXd& M
   return E;
 }
 
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 }  // namespace
 
 const char* ToString(StationaryMethod method) {
@@ -87,10 +92,16 @@ const char* ToString(StationaryMethod method) {
       return "joint";
     case StationaryMethod::kErrorCoordinates:
       return "error-coordinates";
-    case StationaryMethod::kNone:
-      return "none";
   }
   return "?";
+}
+
+bool StationaryPerformanceOptions::IsValid(std::string* error) const {
+  if (weight.size() > 0 && weight.rows() != weight.cols()) {
+    if (error) *error = "weight: expected a square matrix";
+    return false;
+  }
+  return true;
 }
 
 bool PerformanceOptions::IsValid(std::string* error) const {
@@ -114,6 +125,7 @@ bool MonteCarloOptions::IsValid(std::string* error) const {
 }
 
 PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter, const PerformanceOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   const int T = CheckEvaluation(truth, filter, options);
   const Eigen::Index n = truth.state_dim();
 
@@ -172,22 +184,34 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
     record(k, f->O);
     if (options.progress) options.progress(k, T);
   }
+  res.summary.computation = "exact performance";
+  res.summary.method = "joint second moments";
+  res.summary.termination = Termination::kConverged;
+  res.summary.iterations = T;
+  res.summary.seconds = SecondsSince(start);
   return res;
 }
 
 StationaryPerformance ExactStationaryPerformance(const Model& truth, const LinearFilter& filter,
-                                                 const Eigen::MatrixXd& weight) {
+                                                 const StationaryPerformanceOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   if (!truth.time_invariant()) throw Error("truth: expected a time-invariant model for stationary performance");
   if (!filter.time_invariant()) throw Error("filter: expected a time-invariant filter for stationary performance");
+  std::string why;
+  if (!options.IsValid(&why)) throw Error("options." + why);
   CheckCompatible(truth, filter);
-  const Eigen::Index n = truth.state_dim(), nz = filter.state_dim(), m = truth.meas_dim();
-  CheckWeight(weight, n, "weight");
+  const Eigen::Index n = truth.state_dim(), nz = filter.state_dim();
+  CheckWeight(options.weight, n, "options.weight");
   const StepPtr s = truth.step(1);
   const LinearFilterStepPtr f = filter.step(1);
   StationaryPerformance out;
+  Summary& sum = out.summary;
+  sum.computation = "stationary performance";
   const double rho_a = SpectralRadius(s->A);
   const double rho_phi = SpectralRadius(f->Phi);
-  LyapunovSummary ls;
+  LyapunovOptions lyapunov;
+  lyapunov.method = LyapunovMethod::kSchur;
+  LyapunovSolution sol;
   if (rho_a < 1.0 && rho_phi < 1.0) {
     // Joint system AA = [[A, 0], [K C A, Phi]], noise BB diag(Q, R) BB^T with BB = [[I, 0], [K C, K]].
     Eigen::MatrixXd AA = Eigen::MatrixXd::Zero(n + nz, n + nz);
@@ -201,12 +225,14 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
     N.bottomLeftCorner(nz, n) = KC * s->Q;
     N.bottomRightCorner(nz, nz) = KC * s->Q * KC.transpose() + f->K * s->R * f->K.transpose();
     Symmetrize(N);
-    const Eigen::MatrixXd Sigma = SolveDiscreteLyapunov(AA, N, &ls);
-    out.error_cov =
-        ErrorMoment(Sigma.topLeftCorner(n, n), Sigma.topRightCorner(n, nz), Sigma.bottomRightCorner(nz, nz), f->O);
+    sol = SolveDiscreteLyapunov(AA, N, lyapunov);
+    if (sol.summary.ok()) {
+      out.error_cov = ErrorMoment(sol.X.topLeftCorner(n, n), sol.X.topRightCorner(n, nz),
+                                  sol.X.bottomRightCorner(nz, nz), f->O);
+    }
     out.method = StationaryMethod::kJoint;
-    out.message =
-        "joint Lyapunov equation (rho(A) = " + std::to_string(rho_a) + ", rho(Phi) = " + std::to_string(rho_phi) + ")";
+    sum.method = "joint Lyapunov equation";
+    sum.message = "rho(A) = " + std::to_string(rho_a) + ", rho(Phi) = " + std::to_string(rho_phi);
   } else {
     bool consistent =
         nz == n && (f->O.size() == 0 || (f->O - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff() <= 1e-12);
@@ -219,33 +245,43 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
       if (consistent && rho_phi < 1.0) {
         Eigen::MatrixXd N = IKC * s->Q * IKC.transpose() + f->K * s->R * f->K.transpose();
         Symmetrize(N);
-        out.error_cov = SolveDiscreteLyapunov(F, N, &ls);
-        Symmetrize(out.error_cov);
+        sol = SolveDiscreteLyapunov(F, N, lyapunov);
+        if (sol.summary.ok()) {
+          out.error_cov = std::move(sol.X);
+          Symmetrize(out.error_cov);
+        }
         out.method = StationaryMethod::kErrorCoordinates;
-        out.message = "error coordinates: consistent filter, rho((I - K C) A) = " + std::to_string(rho_phi) +
+        sum.method = "error-coordinates Lyapunov equation";
+        sum.message = "consistent filter, rho((I - K C) A) = " + std::to_string(rho_phi) +
                       " (true system rho(A) = " + std::to_string(rho_a) + ")";
       }
     }
-    if (out.method == StationaryMethod::kNone) {
-      out.message = rho_phi >= 1.0
+    if (sum.method.empty()) {
+      sum.termination = Termination::kUnstable;
+      sum.message = rho_phi >= 1.0
                         ? "no stationary error: the filter is unstable (rho(Phi) = " + std::to_string(rho_phi) + ")"
                         : "no stationary error: the true system is unstable (rho(A) = " + std::to_string(rho_a) +
                               ") and the filter is not consistent with it (Phi != (I - K C) A), so the "
                               "error grows with the state; use ExactPerformance over a finite horizon";
-      out.mse = std::numeric_limits<double>::infinity();
-      out.weighted_mse = out.mse;
+      sum.seconds = SecondsSince(start);
       return out;
     }
   }
-  (void)m;
-  out.lyapunov_residual = ls.relative_residual;
-  out.mse = out.error_cov.trace();
-  out.weighted_mse = WeightedTrace(weight, out.error_cov);
+  sum.relative_residual = sol.summary.relative_residual;
+  if (!sol.summary.ok()) {
+    AdoptOutcome(sol.summary, &sum);
+  } else {
+    sum.termination = Termination::kConverged;
+    out.mse = out.error_cov.trace();
+    out.weighted_mse = WeightedTrace(options.weight, out.error_cov);
+  }
+  sum.seconds = SecondsSince(start);
   return out;
 }
 
 MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
                                        const MonteCarloOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   const int T = CheckEvaluation(truth, filter, options);
   const Eigen::Index n = truth.state_dim();
   const int R = options.runs;
@@ -259,7 +295,7 @@ MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& f
 
   for (int r = 0; r < R; ++r) {
     Rng rng(Rng::StreamSeed(options.seed, static_cast<std::uint64_t>(r)));
-    const Trajectory tr = Simulate(truth, T, rng);
+    const Trajectory tr = Simulate(truth, SimulationOptions{T, options.seed}, rng);
     const TimeSeries est = RunLinearFilter(filter, tr.y);
     const TimeSeries err = tr.x - est;
     const double cnt = r + 1.0;
@@ -289,6 +325,11 @@ MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& f
     for (auto& M : moments) M /= static_cast<double>(R);
     res.error_moment = std::move(moments);
   }
+  res.summary.computation = "Monte Carlo performance";
+  res.summary.method = "simulation with RunLinearFilter";
+  res.summary.termination = Termination::kConverged;
+  res.summary.iterations = R;
+  res.summary.seconds = SecondsSince(start);
   return res;
 }
 

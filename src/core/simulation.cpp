@@ -62,8 +62,8 @@ Eigen::MatrixXd PsdFactor(const Eigen::Ref<const Eigen::MatrixXd>& M) {
   return eig.eigenvectors() * s.asDiagonal();
 }
 
-Trajectory Simulate(const Model& model, int steps, Rng& rng) {
-  const int T = model.ResolveSteps(steps);
+Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& rng) {
+  const int T = model.ResolveSteps(options.steps);
   const Eigen::Index n = model.state_dim(), m = model.meas_dim();
   Trajectory tr;
   tr.x.resize(T + 1, n);
@@ -92,18 +92,18 @@ Trajectory Simulate(const Model& model, int steps, Rng& rng) {
   return tr;
 }
 
-Trajectory Simulate(const Model& model, int steps, std::uint64_t seed) {
-  Rng rng(seed);
-  return Simulate(model, steps, rng);
+Trajectory Simulate(const Model& model, const SimulationOptions& options) {
+  Rng rng(options.seed);
+  return Simulate(model, options, rng);
 }
 
-std::vector<Trajectory> SimulateBatch(const Model& model, int steps, int runs, std::uint64_t seed) {
+std::vector<Trajectory> SimulateBatch(const Model& model, int runs, const SimulationOptions& options) {
   if (runs < 0) throw Error("runs: expected a non-negative number of runs, got " + std::to_string(runs));
   std::vector<Trajectory> out;
   out.reserve(static_cast<size_t>(runs));
   for (int i = 0; i < runs; ++i) {
-    Rng rng(Rng::StreamSeed(seed, static_cast<std::uint64_t>(i)));
-    out.push_back(Simulate(model, steps, rng));
+    Rng rng(Rng::StreamSeed(options.seed, static_cast<std::uint64_t>(i)));
+    out.push_back(Simulate(model, options, rng));
   }
   return out;
 }

@@ -364,7 +364,7 @@ std::vector<double> MonteCarloPartialSums(const Model& truth, const LinearFilter
   double* s = sums.data();
   for (int run = first_run; run < first_run + count; ++run) {
     Rng rng(Rng::StreamSeed(options.seed, static_cast<std::uint64_t>(run)));
-    const Trajectory tr = Simulate(truth, T, rng);
+    const Trajectory tr = Simulate(truth, SimulationOptions{T, options.seed}, rng);
     const TimeSeries err = tr.x - RunLinearFilter(filter, tr.y);
     for (Index k = 0; k < steps; ++k) {
       const VectorXd e = err.row(k).transpose();

@@ -446,8 +446,9 @@ FilterRun FactoredRunFilter(const Model& model, const TimeSeries& y, const Filte
   return run;
 }
 
-KalmanSchedule FactoredKalmanSchedule(const Model& model, int steps, const KalmanFilterOptions& options) {
-  const int T = model.ResolveSteps(steps);
+KalmanSchedule FactoredKalmanSchedule(const Model& model, const KalmanScheduleOptions& schedule_options) {
+  const KalmanFilterOptions& options = schedule_options.filter;
+  const int T = model.ResolveSteps(schedule_options.steps);
   KalmanSchedule sch;
   sch.filter_gain.resize(static_cast<size_t>(T) + 1);
   sch.P_pred.push_back(model.P0());
@@ -469,6 +470,7 @@ KalmanSchedule FactoredKalmanSchedule(const Model& model, int steps, const Kalma
     if (!sch.filter_gain[static_cast<size_t>(k)].allFinite()) {
       throw NumericalError("step " + std::to_string(k) + ": filter gain not finite");
     }
+    if (schedule_options.progress) schedule_options.progress(k, T);
   }
   return sch;
 }

@@ -17,7 +17,7 @@ Estimate FactoredPredict(const Estimate& e, const ModelStep& s, const KalmanFilt
 UpdateResult FactoredUpdate(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
                             const KalmanFilterOptions& options);
 FilterRun FactoredRunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options);
-KalmanSchedule FactoredKalmanSchedule(const Model& model, int steps, const KalmanFilterOptions& options);
+KalmanSchedule FactoredKalmanSchedule(const Model& model, const KalmanScheduleOptions& options);
 
 /// Accumulates FilterHealth over a run.
 class HealthMonitor {

@@ -427,6 +427,30 @@ void RunConventional(const Model& model, const TimeSeries& y, const FilterRunOpt
 
 }  // namespace
 
+const char* ToString(CovarianceUpdateForm form) {
+  switch (form) {
+    case CovarianceUpdateForm::kJoseph:
+      return "joseph";
+    case CovarianceUpdateForm::kStandard:
+      return "standard";
+  }
+  return "unknown";
+}
+
+const char* ToString(FilterForm form) {
+  switch (form) {
+    case FilterForm::kConventional:
+      return "conventional";
+    case FilterForm::kSquareRoot:
+      return "sqrt";
+    case FilterForm::kUD:
+      return "ud";
+    case FilterForm::kInformation:
+      return "information";
+  }
+  return "unknown";
+}
+
 bool KalmanFilterOptions::IsValid(std::string* error) const {
   if (update_form != CovarianceUpdateForm::kJoseph && update_form != CovarianceUpdateForm::kStandard) {
     if (error) *error = "update_form: expected kJoseph or kStandard";
@@ -577,11 +601,12 @@ SmootherRun RtsSmooth(const Model& model, const FilterRun& run) {
   return sm;
 }
 
-KalmanSchedule ComputeKalmanSchedule(const Model& model, int steps, const KalmanFilterOptions& options) {
+KalmanSchedule ComputeKalmanSchedule(const Model& model, const KalmanScheduleOptions& schedule_options) {
+  const KalmanFilterOptions& options = schedule_options.filter;
   std::string why;
-  if (!options.IsValid(&why)) throw Error("options: " + why);
-  if (options.form != FilterForm::kConventional) return detail::FactoredKalmanSchedule(model, steps, options);
-  const int T = model.ResolveSteps(steps);
+  if (!options.IsValid(&why)) throw Error("options.filter: " + why);
+  if (options.form != FilterForm::kConventional) return detail::FactoredKalmanSchedule(model, schedule_options);
+  const int T = model.ResolveSteps(schedule_options.steps);
   KalmanSchedule sch;
   sch.filter_gain.resize(static_cast<size_t>(T) + 1);
   sch.P_pred.reserve(static_cast<size_t>(T) + 1);
@@ -600,6 +625,7 @@ KalmanSchedule ComputeKalmanSchedule(const Model& model, int steps, const Kalman
     UpdateInPlace(s->C, s->R, y0, options, x, P, w);
     sch.P_filt.push_back(P);
     sch.filter_gain[static_cast<size_t>(k)] = w.K;
+    if (schedule_options.progress) schedule_options.progress(k, T);
   }
   return sch;
 }
@@ -621,8 +647,8 @@ LinearFilter KalmanAsLinearFilter(const Model& model, const KalmanSchedule& sche
   return LinearFilter(std::move(steps), model.m0());
 }
 
-LinearFilter ConstantGainFilter(const ModelStep& design, const Eigen::Ref<const Eigen::MatrixXd>& filter_gain,
-                                const Eigen::Ref<const Eigen::VectorXd>& z0) {
+LinearFilter ConstantGainAsLinearFilter(const ModelStep& design, const Eigen::Ref<const Eigen::MatrixXd>& filter_gain,
+                                        const Eigen::Ref<const Eigen::VectorXd>& z0) {
   RequireShape("filter_gain", filter_gain, design.state_dim(), design.meas_dim());
   LinearFilterStep f;
   f.Phi = design.A;

@@ -71,14 +71,14 @@ Curves RunChain(const Model& model, const MatrixXd& Ad, Index ne, bool reduced, 
   const WeightSchedule L(PaperWeight(ne, model.state_dim()));
   ReducedOrderOptions ro;
   ro.steps = T;
-  const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
+  const KalmanWeightedCosts kf = KalmanCosts(model, L, ro);
   auto tick = [&]() {
     if (progress) progress(++*done, total);
   };
   Curves c;
   if (reduced) {
     const ReducedOrderOneStep s1 = ComputeReducedOrderOneStep(model, L, ro);
-    const VectorXd J1 = WeightedCost(model, ReducedOrderOneStepFilter(s1, L), L, T);
+    const VectorXd J1 = WeightedCost(model, ReducedOrderOneStepAsLinearFilter(s1, L), L, ro);
     c.reduced_onestep = PaperRatio(J1, kf.predictor, 2);
     std::ostringstream os;
     os << "n_e = " << ne << ": reduced one-step recursion vs engine cost, max rel. diff " << Agreement(s1.cost, J1)
@@ -87,8 +87,8 @@ Curves RunChain(const Model& model, const MatrixXd& Ad, Index ne, bool reduced, 
     tick();
     const ReducedOrderTwoStep s2 = ComputeReducedOrderTwoStep(model, L, ro);
     c.reduced_da = PaperRatio(
-        WeightedCost(model, ReducedOrderTwoStepFilter(s2, L, TwoStepOutput::kDataAssimilation), L, T), kf.filter, 1);
-    c.reduced_f = PaperRatio(WeightedCost(model, ReducedOrderTwoStepFilter(s2, L, TwoStepOutput::kForecast), L, T),
+        WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s2, L, TwoStepOutput::kDataAssimilation), L, ro), kf.filter, 1);
+    c.reduced_f = PaperRatio(WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s2, L, TwoStepOutput::kForecast), L, ro),
                              kf.predictor, 2);
     tick();
   }
@@ -96,9 +96,9 @@ Curves RunChain(const Model& model, const MatrixXd& Ad, Index ne, bool reduced, 
   // (5.2) weights the block-triangular coordinates x' = T^T x, i.e. L T^T in kfx's coordinates.
   const InvariantSubspaceBasis b = LeastDampedSubspace(Ad, ne);
   const WeightSchedule Ls(PaperWeight(ne, model.state_dim()) * b.T.transpose());
-  const KalmanWeightedCosts kfs = KalmanCosts(model, Ls, T);
+  const KalmanWeightedCosts kfs = KalmanCosts(model, Ls, ro);
   const SubspaceOneStep u1 = ComputeSubspaceOneStep(model, b.T, ne, Ls, ro);
-  const VectorXd Ju = WeightedCost(model, SubspaceOneStepFilter(u1, b.T, ne), Ls, T);
+  const VectorXd Ju = WeightedCost(model, SubspaceOneStepAsLinearFilter(u1, b.T, ne), Ls, ro);
   c.subspace_onestep = PaperRatio(Ju, kfs.predictor, 2);
   std::ostringstream os;
   os << "n_e = " << ne << ": subspace one-step recursion vs engine cost, max rel. diff " << Agreement(u1.cost, Ju)
@@ -107,8 +107,8 @@ Curves RunChain(const Model& model, const MatrixXd& Ad, Index ne, bool reduced, 
   tick();
   const SubspaceTwoStep u2 = ComputeSubspaceTwoStep(model, b.T, ne, Ls, ro);
   c.subspace_da = PaperRatio(
-      WeightedCost(model, SubspaceTwoStepFilter(u2, b.T, ne, TwoStepOutput::kDataAssimilation), Ls, T), kfs.filter, 1);
-  c.subspace_f = PaperRatio(WeightedCost(model, SubspaceTwoStepFilter(u2, b.T, ne, TwoStepOutput::kForecast), Ls, T),
+      WeightedCost(model, SubspaceTwoStepAsLinearFilter(u2, b.T, ne, TwoStepOutput::kDataAssimilation), Ls, ro), kfs.filter, 1);
+  c.subspace_f = PaperRatio(WeightedCost(model, SubspaceTwoStepAsLinearFilter(u2, b.T, ne, TwoStepOutput::kForecast), Ls, ro),
                             kfs.predictor, 2);
   tick();
   return c;

@@ -199,7 +199,8 @@ PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options) {
   for (const double beta : betas) {
     for (const Index n : ns) {
       const IdenticalAnalysis a = AnalyzeIdenticalSubsystems(Section31(beta), n);
-      if (!a.block_summary.converged) {
+      a.summary.RequireOk();
+      if (!a.block_summary.ok()) {
         throw NumericalError("fig1: the block-diagonal steady state did not converge at beta = " + BetaName(beta) +
                              ", n = " + std::to_string(n) + ": " + a.block_summary.BriefReport());
       }

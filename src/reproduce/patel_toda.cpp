@@ -46,6 +46,7 @@ PaperReport ReproducePatelToda(const ReproduceOptions& options) {
   PaperReport report;
   const ModelStep design = PatelTodaDesign();
   const DesignTerms terms = ComputeDesignTerms(design);
+  terms.summary.RequireOk();
   ErrorRanges case1, case2, plant;
   case1.Q = MatrixXd::Constant(1, 1, 1.0);  // |dq| <= 1, dr = 0
   case2.R = MatrixXd::Constant(1, 1, 0.5);  // |dr| <= 0.5, dq = 0
@@ -57,6 +58,7 @@ PaperReport ReproducePatelToda(const ReproduceOptions& options) {
   const ErrorBoxSearch s2 = SearchErrorBox(design, case2);
   if (options.progress) options.progress(2, 3);
   const ErrorBoxSearch sp = SearchErrorBox(design, plant);
+  for (const ErrorBoxSearch* s : {&s1, &s2, &sp}) s->summary.RequireOk();
   if (options.progress) options.progress(3, 3);
 
   const double pi4_1 = Theorem4Bound(design, n1), pi4_2 = Theorem4Bound(design, n2);

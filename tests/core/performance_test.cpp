@@ -129,7 +129,7 @@ TEST(ExactPerformance, StationaryErrorCoordinatesForUnstableTruthAndConsistentFi
   Model truth(s, VectorXd::Zero(2), MatrixXd::Identity(2, 2));
   const DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
   ASSERT_TRUE(dare.summary.ok());
-  const LinearFilter kf = ConstantGainFilter(s, dare.filter_gain, VectorXd::Zero(2));
+  const LinearFilter kf = ConstantGainAsLinearFilter(s, dare.filter_gain, VectorXd::Zero(2));
   const StationaryPerformance st = ExactStationaryPerformance(truth, kf);
   EXPECT_EQ(st.method, StationaryMethod::kErrorCoordinates);
   EXPECT_LT(kfx::testing::RelativeDifference(st.error_cov, dare.P_filt), 1e-10);
@@ -137,7 +137,7 @@ TEST(ExactPerformance, StationaryErrorCoordinatesForUnstableTruthAndConsistentFi
   ModelStep wrong = s;
   wrong.A(0, 1) = 0.9;
   const StationaryPerformance none =
-      ExactStationaryPerformance(truth, ConstantGainFilter(wrong, dare.filter_gain, VectorXd::Zero(2)));
+      ExactStationaryPerformance(truth, ConstantGainAsLinearFilter(wrong, dare.filter_gain, VectorXd::Zero(2)));
   EXPECT_EQ(none.method, StationaryMethod::kNone);
   EXPECT_FALSE(none.exists());
   EXPECT_TRUE(std::isinf(none.mse));

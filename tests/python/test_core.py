@@ -292,7 +292,7 @@ def test_exact_performance_of_the_kalman_filter_is_its_own_covariance(random_mod
     # a constant-gain filter: stationary value from ExactStationaryPerformance = limit of ExactPerformance
     d = random_model
     dare = kfx.solve_filter_dare(d["A"], d["C"], d["Q"], d["R"])
-    cg = kfx.constant_gain_filter(model.step(1), dare.filter_gain, d["m0"])
+    cg = kfx.constant_gain_as_linear_filter(model.step(1), dare.filter_gain, d["m0"])
     st = kfx.exact_stationary_performance(model, cg)
     assert st.exists and st.mse == pytest.approx(np.trace(dare.P_filt), rel=1e-9)
     long = kfx.exact_performance(model, cg, steps=400, store_error_moments=False)

@@ -84,7 +84,7 @@ def test_stationary_mismatch_equals_the_engine_and_bounds_hold():
     sm = kfx.stationary_mismatched_covariance(design, truth)
     assert sm.ok and sm.relative_residual < 1e-9
     truth_model = kfx.Model(truth, np.zeros(4), np.eye(4))
-    f = kfx.constant_gain_filter(design, sm.filter_gain, np.zeros(4))
+    f = kfx.constant_gain_as_linear_filter(design, sm.filter_gain, np.zeros(4))
     st = kfx.exact_stationary_performance(truth_model, f)
     np.testing.assert_allclose(sm.P, st.error_cov, rtol=1e-8, atol=1e-12)
     t1 = kfx.theorem1_bound(design, errors)
@@ -155,7 +155,7 @@ def test_full_order_reduced_filter_is_the_kalman_predictor_and_reduced_cost_is_t
     T = 12
     L = kfx.WeightSchedule(np.eye(4))
     s = kfx.reduced_order_one_step(model, L, steps=T)
-    f = kfx.reduced_order_one_step_filter(s, L)
+    f = kfx.reduced_order_one_step_as_linear_filter(s, L)
     J = kfx.weighted_cost(model, f, L, T)
     pred, filt = kfx.kalman_costs(model, L, T)
     np.testing.assert_allclose(J[1:] / pred[1:], 1.0, atol=1e-9)
@@ -164,11 +164,11 @@ def test_full_order_reduced_filter_is_the_kalman_predictor_and_reduced_cost_is_t
     # reduced order (n_e = 2 < n): the recursion's cost equals the engine's, and is >= Kalman's
     L2 = kfx.WeightSchedule(np.eye(4)[:2])
     s2 = kfx.reduced_order_one_step(model, L2, steps=T)
-    J2 = kfx.weighted_cost(model, kfx.reduced_order_one_step_filter(s2, L2), L2, T)
+    J2 = kfx.weighted_cost(model, kfx.reduced_order_one_step_as_linear_filter(s2, L2), L2, T)
     np.testing.assert_allclose(J2[1:], s2.cost[1:], rtol=1e-8)
     assert np.all(J2[1:] >= kfx.kalman_costs(model, L2, T)[0][1:] * (1 - 1e-10))
     two = kfx.reduced_order_two_step(model, L, steps=T)
-    Jda = kfx.weighted_cost(model, kfx.reduced_order_two_step_filter(two, L, "data_assimilation"), L, T)
+    Jda = kfx.weighted_cost(model, kfx.reduced_order_two_step_as_linear_filter(two, L, "data_assimilation"), L, T)
     np.testing.assert_allclose(Jda[1:] / filt[1:], 1.0, atol=1e-9)
 
 
@@ -187,7 +187,7 @@ def test_subspace_estimator_and_spring_mass_chain():
     model = kfx.Model(A=Ad, C=C, Q=0.01 * np.eye(8), R=[[0.1]], m0=np.zeros(8), P0=np.eye(8))
     L = kfx.WeightSchedule(np.eye(8))
     s = kfx.subspace_one_step(model, basis.T, 4, L, steps=10)
-    f = kfx.subspace_one_step_filter(s, basis.T, 4)
+    f = kfx.subspace_one_step_as_linear_filter(s, basis.T, 4)
     J = kfx.weighted_cost(model, f, L, 10)
     pred, _ = kfx.kalman_costs(model, L, 10)
     assert np.all(J[1:] >= pred[1:] * (1 - 1e-10))
@@ -216,10 +216,10 @@ def test_full_space_subspace_filter_is_the_kalman_filter_and_wave_reduced_filter
     sch = kfx.subspace_filter_schedule(fine, S, sub, stationary_prior=True)
     assert sch.converged
     truth = kfx.Model(fine, np.zeros(N), S)
-    reduced = kfx.exact_stationary_performance(truth, kfx.converged_subspace_filter(fine, sub, sch, np.zeros(N)),
+    reduced = kfx.exact_stationary_performance(truth, kfx.converged_subspace_filter_as_linear_filter(fine, sub, sch, np.zeros(N)),
                                                weight=sub.gram)
     dare = kfx.solve_filter_dare(fine.A, fine.C, fine.Q, fine.R)
-    full = kfx.exact_stationary_performance(truth, kfx.constant_gain_filter(fine, dare.filter_gain, np.zeros(N)),
+    full = kfx.exact_stationary_performance(truth, kfx.constant_gain_as_linear_filter(fine, dare.filter_gain, np.zeros(N)),
                                             weight=sub.gram)
     assert reduced.exists and full.exists
     assert full.weighted_mse <= reduced.weighted_mse * (1 + 1e-10)

@@ -768,7 +768,7 @@ const char* ToString(CoupledFilterKind kind) {
     case CoupledFilterKind::kBlockDiagonal:
       return "block-diagonal";
     case CoupledFilterKind::kBlockDiagonalNaive:
-      return "block-diagonal (naive)";
+      return "block-diagonal-naive";
     case CoupledFilterKind::kBanded:
       return "banded";
     case CoupledFilterKind::kFull:
@@ -865,11 +865,12 @@ void CoupledFilter::Update(const CoupledStep& s, const VectorXd& nu, VectorXd x)
 }
 
 CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind, const TimeSeries& y,
-                            const ProgressCallback& progress) {
+                            const CoupledFilterOptions& options) {
   if (y.cols() != system.meas_dim()) {
     throw Error("y: expected " + std::to_string(system.meas_dim()) + " columns (n d), got " + std::to_string(y.cols()));
   }
-  const int T = system.ResolveSteps(static_cast<int>(y.rows()));
+  const int rows = static_cast<int>(y.rows());
+  const int T = system.ResolveSteps(options.steps < 0 ? rows : std::min(options.steps, rows));
   CoupledFilter filter(kind, system.m0(), system.P0_blocks());
   CoupledRun run;
   run.x_filt.resize(T + 1, system.state_dim());
@@ -889,13 +890,15 @@ CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind,
     run.x_filt.row(k) = filter.x().transpose();
     if (coupling) run.coupling.row(k - 1) = filter.coupling_mean().transpose();
     run.trace(k) = trace(filter.P());
-    if (progress) progress(k, T);
+    if (options.progress) options.progress(k, T);
   }
   return run;
 }
 
-LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind, int steps) {
-  const int T = system.ResolveSteps(steps);
+LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind,
+                                         const CoupledFilterOptions& options) {
+  if (options.steps < 0) throw Error("options.steps: expected a number of steps >= 0, got " + std::to_string(options.steps));
+  const int T = system.ResolveSteps(options.steps);
   std::vector<LinearFilterStep> out;
   out.reserve(static_cast<size_t>(T));
   MatrixXd P =
@@ -934,14 +937,15 @@ LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFil
     fs.Phi = F - K * (H * F);
     fs.K = std::move(K);
     out.push_back(std::move(fs));
+    if (options.progress) options.progress(k, T);
   }
   return LinearFilter(std::move(out), system.m0());
 }
 
-CoupledTrajectory SimulateCoupled(const CoupledSystem& system, int steps, std::uint64_t seed) {
-  const int T = system.ResolveSteps(steps);
+CoupledTrajectory SimulateCoupled(const CoupledSystem& system, const SimulationOptions& options) {
+  const int T = system.ResolveSteps(options.steps);
   const Index n = system.n(), c = system.c(), d = system.d(), r = system.r();
-  Rng rng(seed);
+  Rng rng(options.seed);
   CoupledTrajectory tr;
   tr.x.resize(T + 1, n * c);
   tr.y.resize(T, n * d);

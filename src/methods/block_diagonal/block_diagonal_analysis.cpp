@@ -1,6 +1,7 @@
 // Steady state of the block-diagonal and banded filters (004 eq. (19), Prop. 2.1), the constants and
 // bounds of Prop. 2.2 (Appendix A.2), and the exact reduction for identical subsystems (Sec. 3.1).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -62,10 +63,37 @@ void Posterior(const MatrixXd& P, const MatrixXd& H, const MatrixXd& R, MatrixXd
   if (gain) *gain = Kt.transpose();
 }
 
+// A failed inner DARE, carried from deep inside an analysis to its Summary (Analyze below).
+struct InnerFailure {
+  Summary summary;
+};
+
 DareSolution Dare(const MatrixXd& F, const MatrixXd& H, const MatrixXd& Q, const MatrixXd& R, const std::string& what) {
   DareSolution sol = SolveFilterDare(F, H, Q, R);
-  if (!sol.summary.ok()) throw NumericalError(what + ": " + sol.summary.BriefReport());
+  if (!sol.summary.ok()) {
+    sol.summary.computation = what;
+    throw InnerFailure{sol.summary};
+  }
   return sol;
+}
+
+// Runs an analysis and fills its Summary: kConverged unless body() set another termination; the
+// termination of a failed inner DARE; kLostDefiniteness when a covariance step throws NumericalError.
+template <typename Body>
+void Analyze(const char* computation, const char* method, Summary* summary, const Body& body) {
+  const auto start = std::chrono::steady_clock::now();
+  summary->computation = computation;
+  summary->method = method;
+  summary->termination = Termination::kConverged;
+  try {
+    body();
+  } catch (const InnerFailure& failure) {
+    AdoptOutcome(failure.summary, summary);
+  } catch (const NumericalError& e) {
+    summary->termination = Termination::kLostDefiniteness;
+    summary->message = e.what();
+  }
+  summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace
@@ -80,63 +108,63 @@ bool SteadyStateOptions::IsValid(std::string* error) const {
   return true;
 }
 
-std::string SteadyStateSummary::BriefReport() const {
-  std::ostringstream os;
-  os << (converged ? "converged" : "not converged") << " after " << iterations << " iterations, relative change "
-     << relative_change;
-  if (!message.empty()) os << " (" << message << ")";
-  return os.str();
-}
-
 BlockDiagonalSteadyState SolveBlockDiagonalSteadyState(const CoupledStep& s, const SteadyStateOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   ValidateCoupledStep(s, s.n(), s.c(), s.d(), s.r());
   BlockDiagonalSteadyState out;
+  Summary& sum = out.summary;
   // From P~_{0|0} = 0 the sequence is non-decreasing (proof of Prop. 2.1), so it cannot oscillate.
   MatrixXd P = MatrixXd::Zero(s.c(), s.n() * s.c());
-  for (int it = 1; it <= options.max_iterations; ++it) {
-    BlockDiagonalCovarianceStep st = BlockDiagonalCovarianceUpdate(s, P);
-    const double change = (st.P_filt - P).norm(), size = st.P_filt.norm();
-    out.summary.iterations = it;
-    out.summary.relative_change = size > 0 ? change / size : change;
-    P = std::move(st.P_filt);
-    out.gain = std::move(st.gain);
-    if (!std::isfinite(out.summary.relative_change)) {
-      out.summary.message = "the iteration diverged (non-finite covariance)";
-      break;
+  Analyze("block-diagonal steady state", "iteration of eq. (19) from 0", &sum, [&] {
+    sum.termination = Termination::kNotConverged;
+    for (int it = 1; it <= options.max_iterations; ++it) {
+      BlockDiagonalCovarianceStep st = BlockDiagonalCovarianceUpdate(s, P);
+      const double change = (st.P_filt - P).norm(), size = st.P_filt.norm();
+      sum.iterations = it;
+      sum.relative_change = size > 0 ? change / size : change;
+      P = std::move(st.P_filt);
+      out.gain = std::move(st.gain);
+      if (!std::isfinite(sum.relative_change)) {
+        sum.termination = Termination::kFailed;
+        sum.message = "the iteration diverged (non-finite covariance)";
+        return;
+      }
+      if (options.progress) options.progress(it, options.max_iterations);
+      if (sum.relative_change <= options.tolerance) {
+        sum.termination = Termination::kConverged;
+        return;
+      }
     }
-    if (options.progress) options.progress(it, options.max_iterations);
-    if (out.summary.relative_change <= options.tolerance) {
-      out.summary.converged = true;
-      break;
-    }
-  }
-  if (!out.summary.converged && out.summary.message.empty()) out.summary.message = "maximum iterations reached";
+    sum.message = "maximum iterations reached";
+  });
   out.P_filt = std::move(P);
   return out;
 }
 
-BandedCovarianceStep SolveBandedSteadyState(const CoupledStep& s) {
+BandedSteadyState SolveBandedSteadyState(const CoupledStep& s) {
   ValidateCoupledStep(s, s.n(), s.c(), s.d(), s.r());
   const Index n = s.n(), c = s.c(), d = s.d();
   const MatrixXd Q = BandedProcessNoise(s);
-  BandedCovarianceStep out;
+  BandedSteadyState out;
   out.P_filt.resize(c, n * c);
   out.K.resize(c, n * d);
-  for (Index i = 0; i < n; ++i) {
-    const DareSolution sol = Dare(s.F.middleCols(i * c, c), s.H.middleCols(i * c, c), Q.middleCols(i * c, c),
-                                  s.R.middleCols(i * d, d), "banded DARE (block " + std::to_string(i) + ")");
-    out.P_filt.middleCols(i * c, c) = sol.P_filt;
-    out.K.middleCols(i * d, d) = sol.filter_gain;
-  }
+  Analyze("banded steady state", "one DARE per subsystem", &out.summary, [&] {
+    for (Index i = 0; i < n; ++i) {
+      const DareSolution sol = Dare(s.F.middleCols(i * c, c), s.H.middleCols(i * c, c), Q.middleCols(i * c, c),
+                                    s.R.middleCols(i * d, d), "banded DARE (block " + std::to_string(i) + ")");
+      out.P_filt.middleCols(i * c, c) = sol.P_filt;
+      out.K.middleCols(i * d, d) = sol.filter_gain;
+    }
+  });
   return out;
 }
 
-Proposition22 ComputeProposition22(const CoupledStep& s) {
-  ValidateCoupledStep(s, s.n(), s.c(), s.d(), s.r());
+namespace {
+
+// Prop. 2.2 (ComputeProposition22); a failed DARE is thrown as InnerFailure.
+void Proposition22Constants(const CoupledStep& s, Proposition22& p) {
   const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
-  Proposition22 p;
   for (VectorXd* v :
        {&p.alpha1, &p.alpha2, &p.alpha3, &p.alpha4, &p.alpha5, &p.epsilon, &p.bauer_fike, &p.spectral_radius,
         &p.part1_bound, &p.lyapunov_norm, &p.predictor_lyapunov_norm, &p.predictor_norm, &p.part1_corrected_bound}) {
@@ -146,7 +174,8 @@ Proposition22 ComputeProposition22(const CoupledStep& s) {
   p.part1_corrected_applies.assign(static_cast<size_t>(n), false);
   std::vector<MatrixXd> predictors;  // distinct A_p^(i), for the pairwise Stein norms of part (2)
   // C of eq. (20): C_{k,1} of one block-diagonal step from the banded filter's steady state.
-  const BandedCovarianceStep banded = SolveBandedSteadyState(s);
+  const BandedSteadyState banded = SolveBandedSteadyState(s);
+  if (!banded.summary.ok()) throw InnerFailure{banded.summary};
   p.C = r > 0 ? BlockDiagonalCovarianceUpdate(s, banded.P_filt).gain.C1 : MatrixXd(0, 0);
   for (Index i = 0; i < n; ++i) {
     const MatrixXd F = s.F.middleCols(i * c, c), H = s.H.middleCols(i * c, c), V = s.V.middleCols(i * c, c),
@@ -220,6 +249,15 @@ Proposition22 ComputeProposition22(const CoupledStep& s) {
     p.part2_corrected_bound = (1 - std::sqrt(1 - 4 * ac * bc)) / (2 * bc);
   }
   p.closed_loop_corrected_bound = a3 * a4 * p.part2_corrected_bound;
+}
+
+}  // namespace
+
+Proposition22 ComputeProposition22(const CoupledStep& s) {
+  ValidateCoupledStep(s, s.n(), s.c(), s.d(), s.r());
+  Proposition22 p;
+  Analyze("Proposition 2.2", "per-subsystem DAREs and Stein-operator norms", &p.summary,
+          [&] { Proposition22Constants(s, p); });
   return p;
 }
 
@@ -270,8 +308,8 @@ MatrixXd TrueError(const MatrixXd& F, const MatrixXd& H, const MatrixXd& Q, cons
   const ModelStep step = MakeStep(F, H, Q, R);
   const Model truth(step, VectorXd::Zero(F.rows()), MatrixXd::Identity(F.rows(), F.rows()));
   const StationaryPerformance perf =
-      ExactStationaryPerformance(truth, ConstantGainFilter(step, K, VectorXd::Zero(F.rows())));
-  return perf.exists() ? perf.error_cov : MatrixXd();
+      ExactStationaryPerformance(truth, ConstantGainAsLinearFilter(step, K, VectorXd::Zero(F.rows())));
+  return perf.summary.ok() ? perf.error_cov : MatrixXd();
 }
 
 KroneckerStructured FromModes(Index n, const MatrixXd& complement, const MatrixXd& mean) {
@@ -285,63 +323,81 @@ KroneckerStructured FromModes(Index n, const MatrixXd& complement, const MatrixX
 
 }  // namespace
 
+namespace {
+
+// The block-diagonal steady state of identical subsystems (eq. (19) on the two modes): X, the gains on
+// the complement and the mean mode. Fills `sum`.
+void IdenticalBlockSteadyState(const IdenticalSubsystems& sys, double nn, const SteadyStateOptions& options,
+                               MatrixXd* X_out, MatrixXd* Kc, MatrixXd* Km, Summary* sum) {
+  const MatrixXd gUg = sys.g * sys.U * sys.g.transpose();
+  // X <- D{posterior}; on the modes the posterior of L = F X F^T + V is post(L) on the complement and
+  // post(L + n g U g^T) on the mean mode, and its diagonal block is post(L) + (post(L + n gUg^T) - post(L)) / n.
+  MatrixXd X = MatrixXd::Zero(sys.F.rows(), sys.F.rows());
+  Analyze("block-diagonal steady state", "iteration of eq. (19) on the two modes", sum, [&] {
+    sum->termination = Termination::kNotConverged;
+    for (int it = 1; it <= options.max_iterations; ++it) {
+      MatrixXd L = sys.F * X * sys.F.transpose() + sys.V;
+      Symmetrize(L);
+      MatrixXd pc, pm;
+      Posterior(L, sys.H, sys.R, &pc, Kc);
+      Posterior(L + nn * gUg, sys.H, sys.R, &pm, Km);
+      MatrixXd Xn = pc + (pm - pc) / nn;
+      Symmetrize(Xn);
+      const double size = Xn.norm();
+      sum->iterations = it;
+      sum->relative_change = size > 0 ? (Xn - X).norm() / size : (Xn - X).norm();
+      X = std::move(Xn);
+      if (!std::isfinite(sum->relative_change)) {
+        sum->termination = Termination::kFailed;
+        sum->message = "the iteration diverged (non-finite covariance)";
+        return;
+      }
+      if (options.progress) options.progress(it, options.max_iterations);
+      if (sum->relative_change <= options.tolerance) {
+        sum->termination = Termination::kConverged;
+        return;
+      }
+    }
+    sum->message = "maximum iterations reached";
+  });
+  *X_out = std::move(X);
+}
+
+}  // namespace
+
 IdenticalAnalysis AnalyzeIdenticalSubsystems(const IdenticalSubsystems& sys, Index n,
                                              const SteadyStateOptions& options) {
   ValidateIdentical(sys);
   if (n < 1) throw Error("n: expected at least 1 subsystem, got " + std::to_string(n));
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
-  const Index c = sys.F.rows();
   const double nn = static_cast<double>(n);
   const MatrixXd gUg = sys.g * sys.U * sys.g.transpose();
   const MatrixXd Qmean = sys.V + nn * gUg;  // process noise on the mean mode 1/sqrt(n)
   IdenticalAnalysis a;
-  // Full KF: the complement sees V, the mean mode V + n g U g^T.
-  const DareSolution unc = Dare(sys.F, sys.H, sys.V, sys.R, "DARE of P_+(V)");
-  const DareSolution mean = Dare(sys.F, sys.H, Qmean, sys.R, "DARE of the mean mode");
-  a.uncoupled_P = FromModes(n, unc.P_filt, unc.P_filt);
-  a.full_P = FromModes(n, unc.P_filt, mean.P_filt);
-  a.full_gain = FromModes(n, unc.filter_gain, mean.filter_gain);
-  // Banded: every block sees D{V + G U G^T} = V + g U g^T.
-  const DareSolution band = Dare(sys.F, sys.H, sys.V + gUg, sys.R, "banded DARE");
-  a.banded_P = FromModes(n, band.P_filt, band.P_filt);
-  a.banded_gain = FromModes(n, band.filter_gain, band.filter_gain);
-  // Block-diagonal (eq. (19)): X <- D{posterior}; on the modes the posterior of L = F X F^T + V is
-  // post(L) on the complement and post(L + n g U g^T) on the mean mode, and its diagonal block is
-  // post(L) + (post(L + n gUg^T) - post(L)) / n.
-  MatrixXd X = MatrixXd::Zero(c, c), Kc, Km;
-  SteadyStateSummary& sum = a.block_summary;
-  for (int it = 1; it <= options.max_iterations; ++it) {
-    MatrixXd L = sys.F * X * sys.F.transpose() + sys.V;
-    Symmetrize(L);
-    MatrixXd pc, pm;
-    Posterior(L, sys.H, sys.R, &pc, &Kc);
-    Posterior(L + nn * gUg, sys.H, sys.R, &pm, &Km);
-    MatrixXd Xn = pc + (pm - pc) / nn;
-    Symmetrize(Xn);
-    const double size = Xn.norm();
-    sum.iterations = it;
-    sum.relative_change = size > 0 ? (Xn - X).norm() / size : (Xn - X).norm();
-    X = std::move(Xn);
-    if (!std::isfinite(sum.relative_change)) {
-      sum.message = "the iteration diverged (non-finite covariance)";
-      break;
-    }
-    if (options.progress) options.progress(it, options.max_iterations);
-    if (sum.relative_change <= options.tolerance) {
-      sum.converged = true;
-      break;
-    }
-  }
-  if (!sum.converged && sum.message.empty()) sum.message = "maximum iterations reached";
-  a.block_P = FromModes(n, X, X);
-  a.block_gain = FromModes(n, Kc, Km);
-  // True stationary errors, mode by mode, through the exact-performance engine.
-  a.block_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, Kc), TrueError(sys.F, sys.H, Qmean, sys.R, Km));
-  a.banded_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, band.filter_gain),
-                            TrueError(sys.F, sys.H, Qmean, sys.R, band.filter_gain));
-  a.full_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, unc.filter_gain),
-                          TrueError(sys.F, sys.H, Qmean, sys.R, mean.filter_gain));
+  Analyze("identical-subsystem analysis", "reduction to two modes (004 Sec. 3.1)", &a.summary, [&] {
+    // Full KF: the complement sees V, the mean mode V + n g U g^T.
+    const DareSolution unc = Dare(sys.F, sys.H, sys.V, sys.R, "DARE of P_+(V)");
+    const DareSolution mean = Dare(sys.F, sys.H, Qmean, sys.R, "DARE of the mean mode");
+    a.uncoupled_P = FromModes(n, unc.P_filt, unc.P_filt);
+    a.full_P = FromModes(n, unc.P_filt, mean.P_filt);
+    a.full_gain = FromModes(n, unc.filter_gain, mean.filter_gain);
+    // Banded: every block sees D{V + G U G^T} = V + g U g^T.
+    const DareSolution band = Dare(sys.F, sys.H, sys.V + gUg, sys.R, "banded DARE");
+    a.banded_P = FromModes(n, band.P_filt, band.P_filt);
+    a.banded_gain = FromModes(n, band.filter_gain, band.filter_gain);
+    MatrixXd X, Kc, Km;
+    IdenticalBlockSteadyState(sys, nn, options, &X, &Kc, &Km, &a.block_summary);
+    a.block_P = FromModes(n, X, X);
+    a.block_gain = FromModes(n, Kc, Km);
+    // True stationary errors, mode by mode, through the exact-performance engine.
+    a.block_true =
+        FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, Kc), TrueError(sys.F, sys.H, Qmean, sys.R, Km));
+    a.banded_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, band.filter_gain),
+                              TrueError(sys.F, sys.H, Qmean, sys.R, band.filter_gain));
+    a.full_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, unc.filter_gain),
+                            TrueError(sys.F, sys.H, Qmean, sys.R, mean.filter_gain));
+  });
   return a;
 }
 

@@ -4,10 +4,11 @@
 #include "kfx/continuous.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <string>
 
-#include "base/lapack_fortran.hpp"
+#include "riccati/slicot.hpp"
 #include "kfx/discretize.hpp"
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
@@ -163,7 +164,7 @@ Model SampledModel(const ContinuousModel& model, double T, int n) {
 namespace {
 
 MatrixXd FinalZBlock(const Model& sampled, int n, Index p) {
-  const KalmanSchedule s = ComputeKalmanSchedule(sampled, n);
+  const KalmanSchedule s = ComputeKalmanSchedule(sampled, KalmanScheduleOptions{n});
   return s.P_filt[static_cast<std::size_t>(n)].topLeftCorner(p, p);
 }
 
@@ -245,76 +246,55 @@ MatrixXd KalmanBucyCovariance(const ContinuousModel& model, double T) {
 // CARE by SLICOT SB02OD.
 
 CareSolution SolveFilterCare(const ContinuousModel& model) {
+  const auto start = std::chrono::steady_clock::now();
   ValidateContinuousModel(model);
   CareSolution out;
-  const int n = static_cast<int>(model.state_dim());
-  const int m = static_cast<int>(model.output_dim());
-  const int p = 0;
-  const int ld_n = std::max(1, n), ld_m = std::max(1, m), ld_st = std::max(1, 2 * n + m), ld_u = std::max(1, 2 * n);
-  const int ld_l = 1;
-  MatrixXd a = model.A.transpose();
-  MatrixXd b = model.C.transpose();
-  MatrixXd q = model.ProcessNoise();
-  MatrixXd r = model.R;
-  MatrixXd l = MatrixXd::Zero(1, 1);
-  MatrixXd x = MatrixXd::Zero(n, n);
-  const std::size_t two_n = static_cast<std::size_t>(std::max(1, 2 * n));
-  std::vector<double> alfar(two_n), alfai(two_n), beta(two_n);
-  std::vector<double> s(static_cast<std::size_t>(ld_st) * static_cast<std::size_t>(ld_st));
-  std::vector<double> t(static_cast<std::size_t>(ld_st) * two_n);
-  std::vector<double> u(static_cast<std::size_t>(ld_u) * two_n);
-  std::vector<int> iwork(static_cast<std::size_t>(std::max({1, m, 2 * n})));
-  std::vector<kfx_fortran_logical> bwork(two_n);
-  const int ldwork = std::max({14 * n + 23, 16 * n, 2 * n + m, 3 * m}) + 64 * (2 * n + m);
-  std::vector<double> dwork(static_cast<std::size_t>(ldwork));
-  double rcond = 0.0;
-  const double tol = 0.0;
-  int info = 0;
-  sb02od_("C", "B", "N", "U", "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n, r.data(), &ld_m,
-          l.data(), &ld_l, &rcond, x.data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(), &ld_st, t.data(),
-          &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info, 1, 1, 1, 1, 1, 1);
-  KFX_ASSERT(info >= 0);
-  if (info != 0) {
-    out.message = "SB02OD (continuous) failed with info " + std::to_string(info) +
-                  (info == 5 ? ": eigenvalues on or near the imaginary axis (not detectable/stabilizable)" : "");
+  Summary& sum = out.summary;
+  sum.computation = "filter CARE";
+  sum.method = "schur";
+  const Index m = model.output_dim();
+  const MatrixXd G = model.ProcessNoise();
+  detail::Sb02odResult sb =
+      detail::SolveFilterRiccatiSb02od(detail::TimeDomain::kContinuous, model.A, model.C, G, model.R);
+  if (sb.info != 0) {
+    sum.termination = sb.info == 5 ? Termination::kNotStabilizing : Termination::kFailed;
+    sum.message = sb.message + (sb.info == 5 ? " (not detectable or not stabilizable)" : "");
+    sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return out;
   }
-  out.P = x;
+  out.P = std::move(sb.P);
   Symmetrize(out.P);
   const MatrixXd S = model.C.transpose() * model.R.llt().solve(model.C);
-  const MatrixXd G = model.ProcessNoise();
   auto residual = [&](const MatrixXd& P) -> MatrixXd { return model.A * P + P * model.A.transpose() + G - P * S * P; };
   auto scale = [&](const MatrixXd& P) {
     return std::max(2.0 * (model.A * P).norm() + G.norm() + (P * S * P).norm(), 1e-300);
   };
-  // Newton (Kleinman) refinement: (A - P S) dP + dP (A - P S)^T = -res(P), continuous Lyapunov
-  // equation by SLICOT SB03MD; a step is kept only if it lowers the residual.
+  // Newton (Kleinman) refinement: (A - P S) dP + dP (A - P S)^T + res(P) = 0, a continuous Lyapunov
+  // equation (SLICOT SB03MD); a step is kept only if it lowers the residual.
   for (int it = 0; it < 2; ++it) {
     const MatrixXd res = residual(out.P);
-    MatrixXd acl = model.A - out.P * S;
-    MatrixXd c = -res;
-    MatrixXd uu(n, n);
-    std::vector<double> wr(static_cast<std::size_t>(n)), wi(static_cast<std::size_t>(n));
-    std::vector<int> iw(1);
-    const int ldw = 2 * n * n + 3 * n + 8;
-    std::vector<double> dw(static_cast<std::size_t>(ldw));
-    double sc = 1.0, sep = 0.0, ferr = 0.0;
-    int linfo = 0;
-    sb03md_("C", "X", "N", "T", &n, acl.data(), &ld_n, uu.data(), &ld_n, c.data(), &ld_n, &sc, &sep, &ferr, wr.data(),
-            wi.data(), iw.data(), dw.data(), &ldw, &linfo, 1, 1, 1, 1);
-    if (linfo != 0 || !(sc > 0.0)) break;
-    MatrixXd P1 = out.P + c / sc;
+    const MatrixXd acl = model.A - out.P * S;
+    const detail::Sb03mdResult dP = detail::SolveLyapunovSb03md(detail::TimeDomain::kContinuous, acl, res);
+    if (dP.info != 0 || !(dP.scale > 0.0)) break;
+    MatrixXd P1 = out.P + dP.X;
     Symmetrize(P1);
     if (residual(P1).norm() >= res.norm()) break;
     out.P = P1;
+    ++out.refinement_steps;
   }
   const MatrixXd K = out.P * model.C.transpose() * model.R.llt().solve(MatrixXd::Identity(m, m));
-  out.relative_residual = residual(out.P).norm() / scale(out.P);
+  sum.relative_residual = residual(out.P).norm() / scale(out.P);
   const MatrixXd Acl = model.A - K * model.C;
   out.closed_loop_max_real = Acl.eigenvalues().real().maxCoeff();
-  out.ok = out.closed_loop_max_real < 0.0;
-  out.message = "SB02OD: rcond(U11) = " + std::to_string(rcond);
-  if (!out.ok) out.message += "; closed loop not stable";
+  sum.message = sb.message;
+  if (out.closed_loop_max_real < 0.0) {
+    sum.termination = Termination::kConverged;
+  } else {
+    sum.termination = Termination::kNotStabilizing;
+    sum.message += "; closed loop not stable (max Re lambda(A - K C) = " + FormatNumber(out.closed_loop_max_real) + ")";
+  }
+  sum.SetDetail("refinement steps", std::to_string(out.refinement_steps));
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }
 
@@ -323,7 +303,7 @@ CareSolution SolveFilterCare(const ContinuousModel& model) {
 
 ContinuousTrajectory SimulateContinuous(const ContinuousModel& model, double T, int N, std::uint64_t seed) {
   const Model sampled = SampledModel(model, T, N);
-  const Trajectory tr = Simulate(sampled, N, seed);
+  const Trajectory tr = Simulate(sampled, SimulationOptions{N, seed});
   const Index p = model.state_dim();
   ContinuousTrajectory out;
   out.t.resize(static_cast<std::size_t>(N) + 1);

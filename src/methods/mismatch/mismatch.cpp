@@ -4,6 +4,7 @@
 #include "kfx/mismatch.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -55,7 +56,7 @@ void ValidateDesignStep(const ModelStep& step, const std::string& label) {
   ValidateStep(step, step.A.rows(), step.C.rows(), label);
 }
 
-bool ResolveFilterGain(const ModelStep& design, const MismatchOptions& options, MatrixXd* gain, std::string* why) {
+bool ResolveFilterGain(const ModelStep& design, const MismatchOptions& options, MatrixXd* gain, Summary* summary) {
   if (options.filter_gain.size() > 0) {
     RequireShape("options.filter_gain", options.filter_gain, design.A.rows(), design.C.rows());
     RequireFinite("options.filter_gain", options.filter_gain);
@@ -64,11 +65,28 @@ bool ResolveFilterGain(const ModelStep& design, const MismatchOptions& options, 
   }
   const DareSolution dare = SolveFilterDare(design.A, design.C, design.Q, design.R);
   if (!dare.summary.ok()) {
-    *why = "the design model's DARE failed: " + dare.summary.BriefReport();
+    AdoptOutcome(dare.summary, summary);
+    summary->message = "design " + summary->message;
     return false;
   }
   *gain = dare.filter_gain;
   return true;
+}
+
+bool SolveStein(const MatrixXd& A, const MatrixXd& Q, const std::string& what, MatrixXd* X, Summary* summary) {
+  LyapunovSolution sol = SolveDiscreteLyapunov(A, Q);
+  if (!sol.summary.ok()) {
+    AdoptOutcome(sol.summary, summary);
+    summary->message = what + ": " + summary->message;
+    return false;
+  }
+  *X = std::move(sol.X);
+  return true;
+}
+
+void FinishSummary(const char* computation, std::chrono::steady_clock::time_point start, Summary* summary) {
+  summary->computation = computation;
+  summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 MatrixXd OrZeros(const MatrixXd& e, Index rows, Index cols) { return e.size() == 0 ? MatrixXd::Zero(rows, cols) : e; }
@@ -172,24 +190,9 @@ bool MismatchOptions::IsValid(std::string* error) const {
   return true;
 }
 
-const char* ToString(MismatchStatus status) {
-  switch (status) {
-    case MismatchStatus::kOk:
-      return "ok";
-    case MismatchStatus::kTrueSystemUnstable:
-      return "true system unstable";
-    case MismatchStatus::kFilterUnstable:
-      return "filter unstable";
-    case MismatchStatus::kDesignDareFailed:
-      return "design DARE failed";
-    case MismatchStatus::kSolveFailed:
-      return "solve failed";
-  }
-  return "unknown";
-}
-
 StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const ModelStep& truth,
                                                   const MismatchOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   detail::ValidateDesignStep(design, "design: ");
@@ -197,11 +200,13 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
   CheckSameDimensions(design, truth);
   const Index n = design.A.rows();
   StationaryMismatch out;
-  if (!detail::ResolveFilterGain(design, options, &out.filter_gain, &why)) {
-    out.status = MismatchStatus::kDesignDareFailed;
-    out.message = why;
-    return out;
-  }
+  Summary& sum = out.summary;
+  sum.method = "Lyapunov (17), Sylvester (16), Lyapunov (15)";
+  const auto finish = [&]() {
+    detail::FinishSummary("stationary mismatched covariance", start, &sum);
+    return std::move(out);
+  };
+  if (!detail::ResolveFilterGain(design, options, &out.filter_gain, &sum)) return finish();
   const MatrixXd& K = out.filter_gain;
   const MatrixXd& A = truth.A;
   const MatrixXd& AM = design.A;
@@ -214,53 +219,57 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
   out.true_spectral_radius = SpectralRadius(A);
   out.filter_spectral_radius = SpectralRadius(F);
   if (out.true_spectral_radius >= 1.0) {
-    out.status = MismatchStatus::kTrueSystemUnstable;
-    out.message = "rho(A) = " + std::to_string(out.true_spectral_radius) + " >= 1: no stationary U (17)";
-    return out;
+    sum.termination = Termination::kUnstable;
+    sum.message = "the true system is unstable: rho(A) = " + std::to_string(out.true_spectral_radius) +
+                  " >= 1, no stationary U (17)";
+    return finish();
   }
   if (out.filter_spectral_radius >= 1.0) {
-    out.status = MismatchStatus::kFilterUnstable;
-    out.message = "rho(L A_M) = " + std::to_string(out.filter_spectral_radius) + " >= 1: the error grows";
-    return out;
+    sum.termination = Termination::kUnstable;
+    sum.message = "the filter is unstable: rho(L A_M) = " + std::to_string(out.filter_spectral_radius) +
+                  " >= 1, its error grows";
+    return finish();
   }
   // (17): U = A U A^T + G Q G^T.
-  out.U = SolveDiscreteLyapunov(A, truth.Q);
+  if (!detail::SolveStein(A, truth.Q, "(17)", &out.U, &sum)) return finish();
   Symmetrize(out.U);
   // (16): V = A V F^T + A U dC'^T - G Q G^T (L + K dC)^T, i.e. V + (-A) V F^T = rhs.
   const MatrixXd rhs_v = A * out.U * dCp.transpose() - truth.Q * LK.transpose();
   const int info = SolveSylvesterSb04qd(-A, F.transpose(), rhs_v, &out.V);
   if (info != 0) {
-    out.status = MismatchStatus::kSolveFailed;
-    out.message = "Sylvester equation (16) (SLICOT SB04QD) failed, info = " + std::to_string(info);
-    return out;
+    sum.termination = Termination::kFailed;
+    sum.message = "Sylvester equation (16) (SLICOT SB04QD) failed, info = " + std::to_string(info);
+    return finish();
   }
   // (15): P = F P F^T + W.
   MatrixXd W = dCp * out.V * F.transpose();
   W += W.transpose().eval();
   W += dCp * out.U * dCp.transpose() + LK * truth.Q * LK.transpose() + K * truth.R * K.transpose();
   Symmetrize(W);
-  out.P = SolveDiscreteLyapunov(F, W);
+  if (!detail::SolveStein(F, W, "(15)", &out.P, &sum)) return finish();
   Symmetrize(out.P);
   out.trace = out.P.trace();
-  out.relative_residual = std::max({RelativeResidual(out.U, A * out.U * A.transpose() + truth.Q),
+  sum.relative_residual = std::max({RelativeResidual(out.U, A * out.U * A.transpose() + truth.Q),
                                     RelativeResidual(out.V, A * out.V * F.transpose() + rhs_v),
                                     RelativeResidual(out.P, F * out.P * F.transpose() + W)});
-  out.status = MismatchStatus::kOk;
-  out.message = "stationary (15)-(17): rho(A) = " + std::to_string(out.true_spectral_radius) +
+  sum.termination = Termination::kConverged;
+  sum.message = "rho(A) = " + std::to_string(out.true_spectral_radius) +
                 ", rho(L A_M) = " + std::to_string(out.filter_spectral_radius);
-  return out;
+  return finish();
 }
 
-MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth, int steps) {
-  if (steps < 0) throw Error("steps: expected >= 0, got " + std::to_string(steps));
+MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth,
+                                              const MismatchSequenceOptions& options) {
+  const int steps = options.steps;
+  if (steps < 0) throw Error("options.steps: expected >= 0, got " + std::to_string(steps));
   if (design.state_dim() != truth.state_dim() || design.meas_dim() != truth.meas_dim()) {
     throw Error("truth: expected the design's dimensions (n = " + std::to_string(design.state_dim()) +
                 ", m = " + std::to_string(design.meas_dim()) + ")");
   }
-  const int T = design.ResolveSteps(steps, "steps");
-  truth.ResolveSteps(T, "steps");
+  const int T = design.ResolveSteps(steps, "options.steps");
+  truth.ResolveSteps(T, "options.steps");
   const Index n = design.state_dim();
-  const KalmanSchedule schedule = ComputeKalmanSchedule(design, T);
+  const KalmanSchedule schedule = ComputeKalmanSchedule(design, KalmanScheduleOptions{T});
   MismatchSequence out;
   const VectorXd& mt = truth.m0();
   const VectorXd& mm = design.m0();
@@ -501,10 +510,15 @@ ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges
   if (!search.IsValid(&why)) throw Error("search." + why);
   if (!options.IsValid(&why)) throw Error("options." + why);
   ValidateErrorRanges(design, ranges);
+  const auto start = std::chrono::steady_clock::now();
   MismatchOptions fixed = options;
-  if (!detail::ResolveFilterGain(design, options, &fixed.filter_gain, &why)) throw NumericalError(why);
-  const std::vector<FreeEntry> free = FreeEntries(ranges);
   ErrorBoxSearch out;
+  out.summary.method = "corners, then compass search";
+  if (!detail::ResolveFilterGain(design, options, &fixed.filter_gain, &out.summary)) {
+    detail::FinishSummary("error-box search", start, &out.summary);
+    return out;
+  }
+  const std::vector<FreeEntry> free = FreeEntries(ranges);
   out.free_entries = static_cast<int>(free.size());
   const Objective true_error = [&](const ModelingErrors& e, double* value, ModelStep* truth) {
     try {
@@ -513,7 +527,7 @@ ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges
       return false;
     }
     const StationaryMismatch s = StationaryMismatchedCovariance(design, *truth, fixed);
-    if (!s.ok() || !std::isfinite(s.trace)) return false;
+    if (!s.summary.ok() || !std::isfinite(s.trace)) return false;
     *value = s.trace;
     return true;
   };
@@ -530,6 +544,9 @@ ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges
   };
   out.least_upper = SearchExtreme(design, free, true_error, 1.0, search);
   out.greatest_lower = SearchExtreme(design, free, optimal_error, -1.0, search);
+  out.summary.termination = Termination::kConverged;
+  out.summary.iterations = out.least_upper.evaluations + out.greatest_lower.evaluations;
+  detail::FinishSummary("error-box search", start, &out.summary);
   return out;
 }
 

@@ -1,6 +1,7 @@
 // The bounds of paper 002 (Patel, Toda 1977), Theorems 1-6 and the Lemma of Sec. 5. API, equations
 // and the corrections to the printed formulas: include/kfx/mismatch.hpp, docs/papers/002.md.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <complex>
 #include <limits>
@@ -64,6 +65,13 @@ void RequirePlantExact(const ErrorNorms& e, const char* theorem) {
   }
 }
 
+void RequireComputedTerms(const DesignTerms& terms) {
+  if (!terms.summary.ok()) {
+    throw Error("terms: expected computed design terms, got terms that ended " +
+                std::string(ToString(terms.summary.termination)) + ": " + terms.summary.message);
+  }
+}
+
 void RequireNoiseExact(const ErrorNorms& e, const char* theorem) {
   RequireNorms(e);
   if (e.Q != 0.0 || e.R != 0.0) {
@@ -75,37 +83,64 @@ void RequireNoiseExact(const ErrorNorms& e, const char* theorem) {
 }  // namespace
 
 DesignTerms ComputeDesignTerms(const ModelStep& design, const MismatchOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   detail::ValidateDesignStep(design, "design: ");
   DesignTerms t;
-  if (!detail::ResolveFilterGain(design, options, &t.filter_gain, &why)) throw NumericalError(why);
+  Summary& sum = t.summary;
+  sum.method = "two Lyapunov equations (22)-(25)";
+  const auto finish = [&]() {
+    detail::FinishSummary("Patel-Toda design terms", start, &sum);
+    return std::move(t);
+  };
+  if (!detail::ResolveFilterGain(design, options, &t.filter_gain, &sum)) return finish();
   const Index n = design.A.rows();
   t.L = MatrixXd::Identity(n, n) - t.filter_gain * design.C;
   detail::NoiseInputOf(design, &t.G, &t.noise_cov);
   const MatrixXd F = t.L * design.A;
   t.filter_spectral_radius = SpectralRadius(F);
   if (t.filter_spectral_radius >= 1.0) {
-    throw NumericalError("the filter is unstable (rho(L A_M) = " + std::to_string(t.filter_spectral_radius) +
-                         "): no stationary error, no bound");
+    sum.termination = Termination::kUnstable;
+    sum.message = "the filter is unstable (rho(L A_M) = " + std::to_string(t.filter_spectral_radius) +
+                  "): no stationary error, no bound";
+    return finish();
   }
   // B (25) = L G Q_M G^T L^T + K_M R_M K_M^T; i^T M^{-1} b = tr X, X = F X F^T + B.
   MatrixXd B = t.L * design.Q * t.L.transpose() + t.filter_gain * design.R * t.filter_gain.transpose();
   Symmetrize(B);
-  t.nominal_trace = SolveDiscreteLyapunov(F, B).trace();
+  MatrixXd X, Y;
+  if (!detail::SolveStein(F, B, "(25)", &X, &sum)) return finish();
+  t.nominal_trace = X.trace();
   // M^T = I - F^T (x) F^T, so (M^{-1})^T i = cs(Y) with Y = F^T Y F + I.
-  t.adjoint_norm = SolveDiscreteLyapunov(F.transpose(), MatrixXd::Identity(n, n)).norm();
-  return t;
+  if (!detail::SolveStein(F.transpose(), MatrixXd::Identity(n, n), "adjoint (24)", &Y, &sum)) return finish();
+  t.adjoint_norm = Y.norm();
+  sum.termination = Termination::kConverged;
+  return finish();
 }
 
 Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& errors, const MismatchOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   const DesignTerms t = ComputeDesignTerms(design, options);
   const ModelStep truth = ApplyModelingErrors(design, errors);
+  Theorem1Result r;
+  Summary& sum = r.summary;
+  sum.method = "(22)-(27) with the stationary (15)-(17)";
+  const auto finish = [&]() {
+    detail::FinishSummary("Theorem 1 bound", start, &sum);
+    return std::move(r);
+  };
+  if (!t.summary.ok()) {
+    AdoptOutcome(t.summary, &sum);
+    return finish();
+  }
   MismatchOptions fixed = options;
   fixed.filter_gain = t.filter_gain;
-  Theorem1Result r;
   r.exact = StationaryMismatchedCovariance(design, truth, fixed);
-  if (!r.exact.ok()) throw NumericalError("Theorem 1: " + r.exact.message);
+  if (!r.exact.summary.ok()) {
+    AdoptOutcome(r.exact.summary, &sum);
+    return finish();
+  }
   const Index n = design.A.rows(), m = design.C.rows(), p = t.noise_cov.rows();
   const MatrixXd& K = t.filter_gain;
   const MatrixXd& L = t.L;
@@ -129,8 +164,11 @@ Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& erro
   r.pi1 = t.nominal_trace + t.adjoint_norm * r.D_norm;
   MatrixXd B = L * QM * L.transpose() + K * design.R * K.transpose();
   Symmetrize(B);
-  r.identity_trace = SolveDiscreteLyapunov(F, B + D).trace();
-  return r;
+  MatrixXd X;
+  if (!detail::SolveStein(F, B + D, "identity (22)", &X, &sum)) return finish();
+  r.identity_trace = X.trace();
+  sum.termination = Termination::kConverged;
+  return finish();
 }
 
 double Theorem2Bound(const ModelStep& truth) {
@@ -151,6 +189,7 @@ double Theorem2Bound(const ModelStep& truth) {
 
 double Theorem3Bound(const DesignTerms& terms, const ErrorNorms& norms) {
   RequirePlantExact(norms, "Theorem 3");
+  RequireComputedTerms(terms);
   const double lg = detail::SpectralNorm(terms.L * terms.G), k = detail::SpectralNorm(terms.filter_gain);
   return terms.nominal_trace + terms.adjoint_norm * (lg * lg * norms.Q + k * k * norms.R);  // (33)
 }
@@ -187,41 +226,41 @@ LemmaBound LemmaStateBound(const ModelStep& design, double dA_norm) {
   if (!(dA_norm >= 0.0) || !std::isfinite(dA_norm)) {
     throw Error("dA_norm: expected a finite non-negative number, got " + std::to_string(dA_norm));
   }
+  const auto start = std::chrono::steady_clock::now();
   LemmaBound b;
+  Summary& sum = b.summary;
+  sum.method = "Cayley transform (42)";
+  const auto finish = [&](Termination termination, std::string message) {
+    sum.termination = termination;
+    sum.message = std::move(message);
+    detail::FinishSummary("Lemma of Sec. 5", start, &sum);
+    return std::move(b);
+  };
   const Index n = design.A.rows();
   const MatrixXd& AM = design.A;
   const MatrixXd I = MatrixXd::Identity(n, n);
   Eigen::VectorXcd lambda;
   Eigen::MatrixXcd T;
-  if (!detail::EigenDecompose(AM, &lambda, &T)) {
-    b.applies = false;
-    b.message = "eigenvectors of A_M: QR failed";
-    return b;
-  }
+  if (!detail::EigenDecompose(AM, &lambda, &T)) return finish(Termination::kFailed, "eigenvectors of A_M: QR failed");
   b.sigma = -kInf;
   for (Index k = 0; k < n; ++k) {
     if (std::abs(lambda(k) + 1.0) < 1e-12) {
-      b.applies = false;
-      b.message = "A_M has the eigenvalue -1: no Cayley transform (42)";
-      return b;
+      return finish(Termination::kSingular, "A_M has the eigenvalue -1: no Cayley transform (42)");
     }
     b.sigma = std::max(b.sigma, ((lambda(k) - 1.0) / (lambda(k) + 1.0)).real());  // eigenvalues of F_M
   }
   b.kappa = detail::ConditionNumber(T);
-  if (!(b.sigma < 0.0)) {
-    b.applies = false;
-    b.message = "A_M is not stable (max Re lambda(F_M) >= 0)";
-    return b;
-  }
+  if (!(b.sigma < 0.0)) return finish(Termination::kUnstable, "A_M is not stable (max Re lambda(F_M) >= 0)");
   if (!(b.kappa < 1e12)) {
-    b.applies = false;
-    b.message = "A_M is not (numerically) diagonalizable: cond(T) = " + std::to_string(b.kappa);
-    return b;
+    return finish(Termination::kUndecided,
+                  "A_M is not (numerically) diagonalizable: cond(T) = " + std::to_string(b.kappa));
   }
   // F_M = (A_M^T + I)^{-1} (A_M^T - I) (42).
   const MatrixXd FM = (AM.transpose() + I).partialPivLu().solve(AM.transpose() - I);
   // U_M: F_M^T U_M + U_M F_M = -(I - F_M^T) G Q G^T (I - F_M); by (44) U_M = 2 X, X = A_M X A_M^T + G Q G^T.
-  b.UM_norm = 2.0 * detail::SpectralNorm(SolveDiscreteLyapunov(AM, design.Q));
+  MatrixXd X;
+  if (!detail::SolveStein(AM, design.Q, "U_M (44)", &X, &sum)) return finish(sum.termination, sum.message);
+  b.UM_norm = 2.0 * detail::SpectralNorm(X);
   const double ifm = detail::SpectralNorm(I - FM);
   const double c = ifm * ifm * (dA_norm * dA_norm + 2.0 * dA_norm * detail::SpectralNorm(AM));
   b.x = c * b.kappa * b.kappa / (-4.0 * b.sigma);
@@ -229,14 +268,15 @@ LemmaBound LemmaStateBound(const ModelStep& design, double dA_norm) {
   b.beta = b.x < 1.0 ? 0.5 * b.UM_norm / (1.0 - b.x) : kInf;
   static const double limit = PrintedLemmaLimit();
   b.printed_is_valid = b.x <= limit;
-  return b;
+  return finish(Termination::kConverged, "x = " + FormatNumber(b.x));
 }
 
 Theorem5Result Theorem5Bound(const ModelStep& design, const DesignTerms& terms, const ErrorNorms& norms) {
   RequireNoiseExact(norms, "Theorem 5");
+  RequireComputedTerms(terms);
   Theorem5Result r;
   r.lemma = LemmaStateBound(design, norms.A);
-  if (!r.lemma.applies) {
+  if (!r.lemma.applies()) {
     r.pi5 = r.pi5_printed = kInf;
     return r;
   }
@@ -277,9 +317,16 @@ double Theorem6Bound(const ModelStep& design, const ErrorNorms& norms) {
 PatelTodaBounds ComputePatelTodaBounds(const ModelStep& design, const ErrorRanges& ranges,
                                        const MismatchOptions& options) {
   ValidateErrorRanges(design, ranges);
+  const auto start = std::chrono::steady_clock::now();
   PatelTodaBounds b;
   b.norms = ErrorNormsFromRanges(ranges);
   b.terms = ComputeDesignTerms(design, options);
+  b.summary.method = "Theorems 3-6";
+  if (!b.terms.summary.ok()) {
+    AdoptOutcome(b.terms.summary, &b.summary);
+    detail::FinishSummary("Patel-Toda bounds", start, &b.summary);
+    return b;
+  }
   if (ranges.PlantExact()) {
     ErrorNorms e = b.norms;
     e.A = e.C = e.A_diagonal_abs_sum = 0.0;
@@ -295,6 +342,8 @@ PatelTodaBounds ComputePatelTodaBounds(const ModelStep& design, const ErrorRange
     b.lemma = t5.lemma;
     b.pi6 = Theorem6Bound(design, e);
   }
+  b.summary.termination = Termination::kConverged;
+  detail::FinishSummary("Patel-Toda bounds", start, &b.summary);
   return b;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
-// Private helpers shared by src/mismatch.cpp and src/mismatch_bounds.cpp (not installed).
+// Private helpers shared by mismatch.cpp and mismatch_bounds.cpp.
 #include <Eigen/Dense>
+#include <chrono>
 #include <string>
 
 #include "kfx/mismatch.hpp"
@@ -17,9 +18,18 @@ void NoiseInputOf(const ModelStep& step, Eigen::MatrixXd* G, Eigen::MatrixXd* no
 void ValidateDesignStep(const ModelStep& step, const std::string& label);
 
 /// K_M: options.filter_gain when given (checked to be n x m), else the design's steady-state
-/// Kalman filter gain. Returns false with *why set if the DARE fails.
+/// Kalman filter gain. Returns false, with the DARE's outcome adopted by *summary (message "design
+/// filter DARE: ..."), if that DARE fails.
 bool ResolveFilterGain(const ModelStep& design, const MismatchOptions& options, Eigen::MatrixXd* gain,
-                       std::string* why);
+                       Summary* summary);
+
+/// Solves the Stein equation X = A X A^T + Q; false, with the failure adopted by *summary (message
+/// "<what>: ..."), if the solve did not succeed.
+bool SolveStein(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, const std::string& what, Eigen::MatrixXd* X,
+                Summary* summary);
+
+/// Sets the computation name and the elapsed time since `start`.
+void FinishSummary(const char* computation, std::chrono::steady_clock::time_point start, Summary* summary);
 
 /// The error matrix `e` of shape rows x cols, or zeros when it is empty.
 Eigen::MatrixXd OrZeros(const Eigen::MatrixXd& e, Eigen::Index rows, Eigen::Index cols);

@@ -110,6 +110,20 @@ MatrixXd SolveRight(const MatrixXd& X, const MatrixXd& V, const std::string& wha
   return llt.solve(X.transpose()).transpose();
 }
 
+void FinishScheduleSummary(const char* computation, int T, std::chrono::steady_clock::time_point start,
+                           const std::vector<int>* singular_steps, Summary* summary) {
+  summary->computation = computation;
+  summary->method = "oblique projections (001)";
+  summary->termination = Termination::kConverged;
+  summary->iterations = T;
+  if (singular_steps && !singular_steps->empty()) {
+    std::string ks;
+    for (const int k : *singular_steps) ks += (ks.empty() ? "" : ", ") + std::to_string(k);
+    summary->message = "pseudo-inverse of a singular L M L^T at k = " + ks;
+  }
+  summary->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 int PrepareRun(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
@@ -227,6 +241,7 @@ void PriorPrediction(const Model& model, MatrixXd* second_moment, VectorXd* mean
 
 ReducedOrderOneStep ComputeReducedOrderOneStep(const Model& model, const WeightSchedule& L,
                                                const ReducedOrderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   const int T = detail::PrepareRun(model, L, options);
   const double tol = options.rank_tolerance;
   ReducedOrderOneStep out;
@@ -277,10 +292,11 @@ ReducedOrderOneStep ComputeReducedOrderOneStep(const Model& model, const WeightS
     out.Q[static_cast<size_t>(k) + 1] = std::move(Qn);
     out.cost(k + 1) = WeightedTrace(Ln, out.Q[static_cast<size_t>(k) + 1]);
   }
+  detail::FinishScheduleSummary("one-step reduced-order filter schedule", T, start, &out.singular_steps, &out.summary);
   return out;
 }
 
-LinearFilter ReducedOrderOneStepFilter(const ReducedOrderOneStep& s, const WeightSchedule& L) {
+LinearFilter ReducedOrderOneStepAsLinearFilter(const ReducedOrderOneStep& s, const WeightSchedule& L) {
   const int T = static_cast<int>(s.Q.size()) - 1;
   if (T < 1 || static_cast<int>(s.Ae.size()) != T - 1) throw Error("s: expected a computed one-step schedule");
   return detail::OneStepFilter(
@@ -289,6 +305,7 @@ LinearFilter ReducedOrderOneStepFilter(const ReducedOrderOneStep& s, const Weigh
 
 ReducedOrderTwoStep ComputeReducedOrderTwoStep(const Model& model, const WeightSchedule& L,
                                                const ReducedOrderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   const int T = detail::PrepareRun(model, L, options);
   const double tol = options.rank_tolerance;
   ReducedOrderTwoStep out;
@@ -357,10 +374,22 @@ ReducedOrderTwoStep ComputeReducedOrderTwoStep(const Model& model, const WeightS
     out.Qf[i + 1] = sn->A * out.Qda[i] * sn->A.transpose() + sn->Q + pf.lost;
     Symmetrize(out.Qf[i + 1]);
   }
+  detail::FinishScheduleSummary("two-step reduced-order filter schedule", T, start, &out.singular_steps, &out.summary);
   return out;
 }
 
-LinearFilter ReducedOrderTwoStepFilter(const ReducedOrderTwoStep& s, const WeightSchedule& L, TwoStepOutput output) {
+const char* ToString(TwoStepOutput output) {
+  switch (output) {
+    case TwoStepOutput::kDataAssimilation:
+      return "data_assimilation";
+    case TwoStepOutput::kForecast:
+      return "forecast";
+  }
+  return "unknown";
+}
+
+LinearFilter ReducedOrderTwoStepAsLinearFilter(const ReducedOrderTwoStep& s, const WeightSchedule& L,
+                                               TwoStepOutput output) {
   const int T = static_cast<int>(s.Qf.size()) - 1;
   if (T < 1 || static_cast<int>(s.Ada.size()) != T - 1) throw Error("s: expected a computed two-step schedule");
   std::vector<MatrixXd> Cf(s.Cf.begin() + 1, s.Cf.end()), Df(s.Df.begin() + 1, s.Df.end());
@@ -370,11 +399,13 @@ LinearFilter ReducedOrderTwoStepFilter(const ReducedOrderTwoStep& s, const Weigh
 
 // ---- costs ------------------------------------------------------------------------------------
 
-Eigen::VectorXd WeightedCost(const Model& truth, const LinearFilter& filter, const WeightSchedule& L, int steps,
-                             PerformanceResult* result) {
+Eigen::VectorXd WeightedCost(const Model& truth, const LinearFilter& filter, const WeightSchedule& L,
+                             const ReducedOrderOptions& options, PerformanceResult* result) {
   if (L.cols() != truth.state_dim()) throw Error("L: expected as many columns as the model has states");
+  std::string why;
+  if (!options.IsValid(&why)) throw Error("options." + why);
   PerformanceOptions po;
-  po.steps = steps;
+  po.steps = options.steps;
   po.store_error_moments = true;
   PerformanceResult r = ExactPerformance(truth, filter, po);
   const int T = static_cast<int>(r.error_moment.size()) - 1;
@@ -384,9 +415,13 @@ Eigen::VectorXd WeightedCost(const Model& truth, const LinearFilter& filter, con
   return J;
 }
 
-KalmanWeightedCosts KalmanCosts(const Model& model, const WeightSchedule& L, int steps) {
+KalmanWeightedCosts KalmanCosts(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options) {
   if (L.cols() != model.state_dim()) throw Error("L: expected as many columns as the model has states");
-  const KalmanSchedule ks = ComputeKalmanSchedule(model, steps);
+  std::string why;
+  if (!options.IsValid(&why)) throw Error("options." + why);
+  KalmanScheduleOptions schedule_options;
+  schedule_options.steps = options.steps;
+  const KalmanSchedule ks = ComputeKalmanSchedule(model, schedule_options);
   const int T = static_cast<int>(ks.P_pred.size()) - 1;
   KalmanWeightedCosts c;
   c.predictor.resize(T + 1);

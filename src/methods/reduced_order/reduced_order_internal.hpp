@@ -1,6 +1,7 @@
 #pragma once
-// Private pieces shared by src/reduced_order.cpp and src/reduced_order_subspace.cpp.
+// Private pieces shared by reduced_order.cpp and reduced_order_subspace.cpp.
 #include <Eigen/Dense>
+#include <chrono>
 #include <functional>
 #include <string>
 #include <vector>
@@ -15,6 +16,12 @@ Eigen::MatrixXd SymmetricPseudoInverse(const Eigen::MatrixXd& S, double rank_tol
 
 /// X V^{-1} for symmetric positive definite V (Cholesky). @throws kfx::NumericalError otherwise.
 Eigen::MatrixXd SolveRight(const Eigen::MatrixXd& X, const Eigen::MatrixXd& V, const std::string& what);
+
+/// The Summary of a schedule of T steps computed since `start` (a recursion: it either completes or
+/// throws): kConverged, iterations = T, seconds, and a message listing the steps that used a
+/// pseudo-inverse (singular_steps; may be null).
+void FinishScheduleSummary(const char* computation, int T, std::chrono::steady_clock::time_point start,
+                           const std::vector<int>* singular_steps, Summary* summary);
 
 /// Validates options and weights against the model; returns T.
 int PrepareRun(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options);

@@ -186,6 +186,7 @@ MatrixXd ProjectedLoss(const MatrixXd& N, const MatrixXd& mu) {
 
 SubspaceOneStep ComputeSubspaceOneStep(const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r,
                                        const WeightSchedule& L, const ReducedOrderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   const int K = detail::PrepareRun(model, L, options);
   const Transformed tr(model, T, n_r, L);
   SubspaceOneStep out;
@@ -219,10 +220,11 @@ SubspaceOneStep ComputeSubspaceOneStep(const Model& model, const Eigen::MatrixXd
     out.Q[static_cast<size_t>(k) + 1] = std::move(Qn);
     out.cost(k + 1) = tr.Cost(k + 1, out.Q[static_cast<size_t>(k) + 1]);
   }
+  detail::FinishScheduleSummary("one-step subspace estimator schedule", K, start, nullptr, &out.summary);
   return out;
 }
 
-LinearFilter SubspaceOneStepFilter(const SubspaceOneStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r) {
+LinearFilter SubspaceOneStepAsLinearFilter(const SubspaceOneStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r) {
   const int K = static_cast<int>(s.Q.size()) - 1;
   if (K < 1 || static_cast<int>(s.Ae.size()) != K - 1) throw Error("s: expected a computed subspace schedule");
   RequireShape("T", T, T.rows(), T.rows());
@@ -234,6 +236,7 @@ LinearFilter SubspaceOneStepFilter(const SubspaceOneStep& s, const Eigen::Matrix
 
 SubspaceTwoStep ComputeSubspaceTwoStep(const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r,
                                        const WeightSchedule& L, const ReducedOrderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
   const int K = detail::PrepareRun(model, L, options);
   const Transformed tr(model, T, n_r, L);
   SubspaceTwoStep out;
@@ -276,11 +279,12 @@ SubspaceTwoStep ComputeSubspaceTwoStep(const Model& model, const Eigen::MatrixXd
     out.Qf[i + 1] = An * out.Qda[i] * An.transpose() + tr.Qn(k + 1);
     Symmetrize(out.Qf[i + 1]);
   }
+  detail::FinishScheduleSummary("two-step subspace estimator schedule", K, start, nullptr, &out.summary);
   return out;
 }
 
-LinearFilter SubspaceTwoStepFilter(const SubspaceTwoStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r,
-                                   TwoStepOutput output) {
+LinearFilter SubspaceTwoStepAsLinearFilter(const SubspaceTwoStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r,
+                                           TwoStepOutput output) {
   const int K = static_cast<int>(s.Qf.size()) - 1;
   if (K < 1 || static_cast<int>(s.Af.size()) != K - 1) throw Error("s: expected a computed subspace schedule");
   if (n_r != s.xi1.size()) throw Error("n_r: expected the schedule's subspace dimension");

@@ -16,13 +16,13 @@ namespace {
 using Eigen::MatrixXd;
 
 // Moore-Penrose pseudoinverse of a symmetric PSD matrix (Remark 2.2): eigenvalues <= rtol * lambda_max
-// are dropped. Returns the rank used.
+// are dropped. Returns the rank used, or -1 if the eigendecomposition failed.
 int SymmetricPseudoInverse(const MatrixXd& S, double rtol, MatrixXd* out) {
   const Eigen::Index n = S.rows();
   out->setZero(n, n);
   if (n == 0) return 0;
   Eigen::SelfAdjointEigenSolver<MatrixXd> es(S);
-  if (es.info() != Eigen::Success) throw NumericalError("S~_k: symmetric eigendecomposition failed");
+  if (es.info() != Eigen::Success) return -1;
   const double lmax = es.eigenvalues().cwiseAbs().maxCoeff();
   if (!(lmax > 0)) return 0;
   int rank = 0;
@@ -116,9 +116,10 @@ bool SubspaceFilterOptions::IsValid(std::string* error) const {
   return true;
 }
 
-SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, const Eigen::MatrixXd& S0,
-                                                     const Subspace& subspace, const SubspaceFilterOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
+namespace {
+
+void CheckScheduleInput(const ModelStep& truth, const Eigen::MatrixXd& S0, const Subspace& subspace,
+                        const SubspaceFilterOptions& options, const BlockOperator& applyA) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   const Eigen::Index N = truth.state_dim(), m = truth.meas_dim();
@@ -126,15 +127,8 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
   RequireShape("S0", S0, N, N);
   RequirePositiveSemidefinite("S0", S0);
   ValidateSubspace(subspace, N);
-  const Eigen::Index n = subspace.reduced_dim();
-  const MatrixXd& Pi = subspace.projection;
-  const MatrixXd Pi_adj = ProjectionAdjoint(subspace);
-  const BlockOperator applyA = options.apply_A ? options.apply_A : DenseOperator(truth.A);
-  const MatrixXd& Qn = truth.Q;
-  const MatrixXd& C = truth.C;
-  const MatrixXd& R = truth.R;
   if (options.stationary_prior) {
-    const MatrixXd resid = Sandwich(applyA, S0) + Qn - S0;
+    const MatrixXd resid = Sandwich(applyA, S0) + truth.Q - S0;
     const double rel = resid.norm() / std::max(S0.norm(), std::numeric_limits<double>::min());
     if (!(rel <= 1e-8)) {
       throw Error(
@@ -143,10 +137,71 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
           std::to_string(rel));
     }
   }
+}
+
+// The RDE (20) as a second algorithm: P~ from its own previous P, the Kalman-type update, and the load
+// M_k (21) = (I - Q_k Pi) X (I - Q_k Pi)^T with X = A Q_{k-1} S~_{k-1} Q_{k-1}^T A^T + K P~ C^T-part.
+struct RdeCheck {
+  MatrixXd P_rde, M_k;
+  void Step(const ModelStep& truth, const BlockOperator& applyA, const MatrixXd& Pi, const MatrixXd& Q,
+            const MatrixXd& X_load) {
+    const MatrixXd& C = truth.C;
+    MatrixXd Pt_r = Sandwich(applyA, P_rde);
+    Pt_r += truth.Q;
+    const MatrixXd PtCt_r = Pt_r * C.transpose();
+    MatrixXd S_r = truth.R;
+    S_r.noalias() += C * PtCt_r;
+    Eigen::LLT<MatrixXd> llt_r(S_r);
+    const MatrixXd K_r = llt_r.solve(PtCt_r.transpose()).transpose();
+    MatrixXd Y = X_load;
+    Y.noalias() -= (X_load * Pi.transpose()) * Q.transpose();
+    M_k = Y;
+    M_k.noalias() -= Q * (Pi * Y);
+    Symmetrize(M_k);
+    P_rde = Pt_r;
+    P_rde.noalias() -= K_r * PtCt_r.transpose();
+    P_rde += M_k;
+    Symmetrize(P_rde);
+  }
+};
+
+// The final fields of the schedule from the last step's matrices.
+void FinishSchedule(const Eigen::MatrixXd& S0, const MatrixXd& S, const MatrixXd& St, const MatrixXd& St_prev,
+                    const MatrixXd& AQ, SubspaceFilterSchedule* out) {
+  if (out->steps > 0) {
+    out->P_final = S;
+    out->P_final.noalias() -= (out->Q * St) * out->Q.transpose();
+    Symmetrize(out->P_final);
+    out->P_pred = S;
+    out->P_pred.noalias() -= (AQ * St_prev) * AQ.transpose();
+    Symmetrize(out->P_pred);
+  } else {
+    out->P_final = S0;
+    out->P_pred = S0;
+  }
+  out->S = S;
+  out->S_tilde = St;
+}
+
+}  // namespace
+
+SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, const Eigen::MatrixXd& S0,
+                                                     const Subspace& subspace, const SubspaceFilterOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const BlockOperator applyA = options.apply_A ? options.apply_A : DenseOperator(truth.A);
+  CheckScheduleInput(truth, S0, subspace, options, applyA);
+  const Eigen::Index N = truth.state_dim(), n = subspace.reduced_dim();
+  const MatrixXd& Pi = subspace.projection;
+  const MatrixXd Pi_adj = ProjectionAdjoint(subspace);
+  const MatrixXd& C = truth.C;
 
   SubspaceFilterSchedule out;
+  Summary& sum = out.summary;
+  sum.computation = "subspace filter schedule";
+  sum.method = "Algorithm 2.3";
+  sum.termination = Termination::kNotConverged;
   MatrixXd S = S0, P = S0, Q = Pi_adj, St = MatrixXd::Zero(n, n);
-  MatrixXd P_rde = S0;
+  RdeCheck rde{S0, MatrixXd()};
   MatrixXd K_prev;
   const int T_max = options.steps >= 0 ? options.steps : options.max_steps;
   if (options.store_schedule) {
@@ -156,14 +211,15 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
   if (options.store_covariances) {
     out.P.push_back(P);
     if (options.rde_check) {
-      out.P_rde.push_back(P_rde);
+      out.P_rde.push_back(rde.P_rde);
       out.M.push_back(MatrixXd::Zero(N, N));
     }
   }
   out.pinv_rank.push_back(0);
-  MatrixXd K, V, St_pinv, M_k;
+  MatrixXd K, V, St_pinv;
   int small_changes = 0;
   int k = 0;
+  bool failed = false;
   const bool want_P = options.store_covariances || options.rde_check;
   MatrixXd AQ, St_prev, QS, QS_prev;
   for (k = 1; k <= T_max; ++k) {
@@ -172,19 +228,23 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     // its product with C^T is needed, O(N n (n + m)) instead of two N x N applications of A.
     if (!options.stationary_prior) {
       S = Sandwich(applyA, S);
-      S += Qn;
+      S += truth.Q;
     }
     AQ = applyA(Q);
     St_prev = St;
     // Gain (14).
     MatrixXd PtCt = S * C.transpose();
     PtCt.noalias() -= AQ * (St * (AQ.transpose() * C.transpose()));
-    MatrixXd Sinn = R;
+    MatrixXd Sinn = truth.R;
     Sinn.noalias() += C * PtCt;
     Symmetrize(Sinn);
     Eigen::LLT<MatrixXd> llt(Sinn);
-    if (llt.info() != Eigen::Success)
-      throw NumericalError("C P~_k C^T + R: not positive definite at step " + std::to_string(k));
+    if (llt.info() != Eigen::Success) {
+      sum.termination = Termination::kLostDefiniteness;
+      sum.message = "C P~_k C^T + R: not positive definite at step " + std::to_string(k);
+      failed = true;
+      break;
+    }
     K = llt.solve(PtCt.transpose()).transpose();  // N x m
     // V_k = A Q_{k-1} S~_{k-1} Q_{k-1}^T A^T Pi^T + K_k (C P~_k C^T + R) K_k^T Pi^T.
     const MatrixXd PiAQ = Pi * AQ;  // n x n
@@ -201,6 +261,12 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     St.noalias() = Pi * V;
     Symmetrize(St);
     const int rank = SymmetricPseudoInverse(St, options.pinv_tolerance, &St_pinv);
+    if (rank < 0) {
+      sum.termination = Termination::kFailed;
+      sum.message = "S~_k: symmetric eigendecomposition failed at step " + std::to_string(k);
+      failed = true;
+      break;
+    }
     out.pinv_rank.push_back(rank);
     MatrixXd Resid = V;
     Resid.noalias() -= Pi_adj * St;  // (I - Pi_s) V_k, as Pi V_k = S~_k
@@ -211,31 +277,13 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
       P.noalias() -= (Q * St) * Q.transpose();
       Symmetrize(P);
     }
-
     if (options.rde_check) {
-      // (20): P~ from its own previous P, the Kalman-type update, and the load M_k (21).
-      MatrixXd Pt_r = Sandwich(applyA, P_rde);
-      Pt_r += Qn;
-      const MatrixXd PtCt_r = Pt_r * C.transpose();
-      MatrixXd S_r = R;
-      S_r.noalias() += C * PtCt_r;
-      Eigen::LLT<MatrixXd> llt_r(S_r);
-      const MatrixXd K_r = llt_r.solve(PtCt_r.transpose()).transpose();
-      // M_k = (I - Q_k Pi) X (I - Q_k Pi)^T.
-      MatrixXd Y = X_load;
-      Y.noalias() -= (X_load * Pi.transpose()) * Q.transpose();
-      M_k = Y;
-      M_k.noalias() -= Q * (Pi * Y);
-      Symmetrize(M_k);
-      P_rde = Pt_r;
-      P_rde.noalias() -= K_r * PtCt_r.transpose();
-      P_rde += M_k;
-      Symmetrize(P_rde);
-      const double rel = (P - P_rde).norm() / std::max(P.norm(), std::numeric_limits<double>::min());
+      rde.Step(truth, applyA, Pi, Q, X_load);
+      const double rel = (P - rde.P_rde).norm() / std::max(P.norm(), std::numeric_limits<double>::min());
       out.rde_max_relative_difference = std::max(out.rde_max_relative_difference, rel);
       if (options.store_covariances) {
-        out.P_rde.push_back(P_rde);
-        out.M.push_back(M_k);
+        out.P_rde.push_back(rde.P_rde);
+        out.M.push_back(rde.M_k);
       }
     }
     if (options.store_schedule) {
@@ -249,37 +297,33 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     // amplifies round-off). Q_k S~_k = Pi^* S~_k + (I - Pi_s) V_k S~_k^+ S~_k is V_k on R(S~_k).
     QS.noalias() = Q * St;
     if (k > 1) {
-      out.last_change = std::max(RelativeChange(K, K_prev), RelativeChange(QS, QS_prev));
-      small_changes = out.last_change <= options.tolerance ? small_changes + 1 : 0;
-      if (small_changes >= options.patience && !out.converged) {
-        out.converged = true;
+      sum.relative_change = std::max(RelativeChange(K, K_prev), RelativeChange(QS, QS_prev));
+      small_changes = sum.relative_change <= options.tolerance ? small_changes + 1 : 0;
+      if (small_changes >= options.patience && !sum.ok()) {
+        sum.termination = Termination::kConverged;
         out.converged_at = k - options.patience + 1;
       }
     }
     K_prev = K;
     QS_prev.swap(QS);
     if (options.progress) options.progress(k, T_max);
-    if (options.steps < 0 && out.converged) break;
+    if (options.steps < 0 && sum.ok()) break;
   }
-  out.steps = std::min(k, T_max);
+  out.steps = failed ? k - 1 : std::min(k, T_max);
+  sum.iterations = out.steps;
+  if (!failed && !sum.ok()) {
+    sum.message = "the gain and output map did not settle within " + std::to_string(T_max) +
+                  " steps (relative change " + FormatNumber(sum.relative_change) + " > tolerance " +
+                  FormatNumber(options.tolerance) + ")";
+  } else if (sum.ok()) {
+    sum.message = "converged at step " + std::to_string(out.converged_at);
+  }
   out.K = K;
   out.Q = Q;
-  if (out.steps > 0) {
-    out.P_final = S;
-    out.P_final.noalias() -= (Q * St) * Q.transpose();
-    Symmetrize(out.P_final);
-    out.P_pred = S;
-    out.P_pred.noalias() -= (AQ * St_prev) * AQ.transpose();
-    Symmetrize(out.P_pred);
-  } else {
-    out.P_final = S0;
-    out.P_pred = S0;
-  }
-  out.S = S;
-  out.S_tilde = St;
+  FinishSchedule(S0, S, St, St_prev, AQ, &out);
   out.V = V;
-  out.M_final = M_k;
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.M_final = rde.M_k;
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
 
@@ -325,9 +369,9 @@ LinearFilter SubspaceFilterAsLinearFilter(const ModelStep& truth, const Subspace
   return LinearFilter(std::move(steps), subspace.projection * m0, schedule.output_map[0]);
 }
 
-LinearFilter ConvergedSubspaceFilter(const ModelStep& truth, const Subspace& subspace,
-                                     const SubspaceFilterSchedule& schedule,
-                                     const Eigen::Ref<const Eigen::VectorXd>& m0) {
+LinearFilter ConvergedSubspaceFilterAsLinearFilter(const ModelStep& truth, const Subspace& subspace,
+                                                   const SubspaceFilterSchedule& schedule,
+                                                   const Eigen::Ref<const Eigen::VectorXd>& m0) {
   CheckScheduleMatches(truth, subspace, schedule);
   RequireVector("m0", m0, truth.state_dim());
   return LinearFilter(OnlineStep(truth, subspace.projection, schedule.K, schedule.Q, schedule.Q),
@@ -346,12 +390,24 @@ ApproximateSubspaceFilter ComputeApproximateSubspaceFilter(const ModelStep& trut
   const MatrixXd& Pi = subspace.projection;
   const MatrixXd Pi_adj = ProjectionAdjoint(subspace);
   const BlockOperator applyA = apply_A ? apply_A : DenseOperator(truth.A);
+  const auto t0 = std::chrono::steady_clock::now();
   ApproximateSubspaceFilter out;
+  Summary& sum = out.summary;
+  sum.computation = "Sec. 6.1 approximate subspace filter";
+  sum.method = "reduced model and its DARE";
+  const auto finish = [&sum, t0](ApproximateSubspaceFilter& result) {
+    sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return std::move(result);
+  };
   const MatrixXd SPit = S * Pi.transpose();  // N x n
   MatrixXd G = Pi * SPit;                    // Pi S Pi^T
   Symmetrize(G);
   MatrixXd G_pinv;
-  SymmetricPseudoInverse(G, 1e-12, &G_pinv);
+  if (SymmetricPseudoInverse(G, 1e-12, &G_pinv) < 0) {
+    sum.termination = Termination::kFailed;
+    sum.message = "Pi S Pi^T: symmetric eigendecomposition failed";
+    return finish(out);
+  }
   const MatrixXd T = SPit - Pi_adj * G;  // (I - Pi_s) S Pi^T
   out.Q_hat = Pi_adj + T * G_pinv;
   // V^ = (I - Pi_s) S (I - Pi_s)^T - T G^+ T^T as printed is the covariance of x - Q^ Pi x; it is
@@ -371,7 +427,12 @@ ApproximateSubspaceFilter ComputeApproximateSubspaceFilter(const ModelStep& trut
     // round-off negative eigenvalues of Q_r (at most 1e-9 |Q_r|; larger ones are an error).
     Eigen::SelfAdjointEigenSolver<MatrixXd> es(out.Q_r);
     const double lmin = es.eigenvalues().minCoeff(), lmax = es.eigenvalues().cwiseAbs().maxCoeff();
-    if (lmin < -1e-9 * lmax) throw NumericalError("Sec. 6.1: Pi (Q + A V^ A^T) Pi^T is not positive semidefinite");
+    if (lmin < -1e-9 * lmax) {
+      sum.termination = Termination::kLostDefiniteness;
+      sum.message = "Pi (Q + A V^ A^T) Pi^T is not positive semidefinite (smallest eigenvalue " +
+                    FormatNumber(lmin) + ")";
+      return finish(out);
+    }
     if (lmin < 0) {
       out.Q_r = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
       Symmetrize(out.Q_r);
@@ -384,15 +445,25 @@ ApproximateSubspaceFilter ComputeApproximateSubspaceFilter(const ModelStep& trut
     Symmetrize(R);
   }
   out.dare = SolveFilterDare(out.A_r, out.C_r, out.Q_r, R);
-  if (!out.dare.summary.ok()) throw NumericalError("Sec. 6.1 reduced DARE: " + out.dare.summary.BriefReport());
+  if (!out.dare.summary.ok()) {
+    AdoptOutcome(out.dare.summary, &sum);
+    sum.message = "reduced " + sum.message;
+    return finish(out);
+  }
   out.gain = out.dare.filter_gain;
   out.Phi = out.A_r;
   out.Phi.noalias() -= out.gain * (out.C_r * out.A_r);
-  return out;
+  sum.termination = Termination::kConverged;
+  sum.relative_residual = out.dare.summary.relative_residual;
+  return finish(out);
 }
 
 LinearFilter ApproximateSubspaceFilterAsLinearFilter(const ApproximateSubspaceFilter& approx,
                                                      const Eigen::Ref<const Eigen::VectorXd>& z0) {
+  if (!approx.summary.ok()) {
+    throw Error("approx: expected a computed Sec. 6.1 filter, got one that ended " +
+                std::string(ToString(approx.summary.termination)) + ": " + approx.summary.message);
+  }
   LinearFilterStep f;
   f.Phi = approx.Phi;
   f.K = approx.gain;

@@ -1,5 +1,6 @@
 // The error bounds of Sec. 4 of paper 000: Theorem 4.1 ((25), (27), Lemma A.1's L and L_0),
 // Theorem 4.2 and Remark 4.3 (subspace_filter.hpp). Corrections: docs/papers/000.md.
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -21,9 +22,11 @@ double Norm2(const MatrixXd& X) {
 }
 
 // L of Lemma A.1 (iii): sup tr(L^{-1} X) / tr X over X >= 0 = lambda_max(Y), Y = Phi^T Y Phi + I
-// (the adjoint of (29) applied to I).
+// (the adjoint of (29) applied to I); +inf when the equation has no solution (Phi not stable).
 double TraceBoundL(const MatrixXd& Phi) {
-  const MatrixXd Y = SolveDiscreteLyapunov(Phi.transpose(), MatrixXd::Identity(Phi.rows(), Phi.cols()));
+  const LyapunovSolution sol = SolveDiscreteLyapunov(Phi.transpose(), MatrixXd::Identity(Phi.rows(), Phi.cols()));
+  if (!sol.summary.ok()) return std::numeric_limits<double>::infinity();
+  const MatrixXd& Y = sol.X;
   Eigen::SelfAdjointEigenSolver<MatrixXd> es(0.5 * (Y + Y.transpose()), Eigen::EigenvaluesOnly);
   return es.eigenvalues().maxCoeff();
 }
@@ -54,6 +57,7 @@ void SeriesL0(const MatrixXd& Phi, double* squares, double* printed) {
 
 DiscretizationBounds ComputeDiscretizationBounds(const ModelStep& truth, const Eigen::MatrixXd& S,
                                                  const Subspace& subspace, const SubspaceFilterSchedule& schedule) {
+  const auto t0 = std::chrono::steady_clock::now();
   const Eigen::Index N = truth.state_dim(), m = truth.meas_dim();
   ValidateStep(truth, N, m, "truth: ");
   RequireShape("S", S, N, N);
@@ -89,6 +93,12 @@ DiscretizationBounds ComputeDiscretizationBounds(const ModelStep& truth, const E
   const MatrixXd K_inf = Lt * schedule.K;
 
   DiscretizationBounds b;
+  b.summary.computation = "discretization bounds";
+  b.summary.method = "Theorems 4.1, 4.2, Remark 4.3";
+  const auto finish = [&b, t0]() {
+    b.summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return b;
+  };
   b.trace_M = M.trace();
   {
     // M_inf (21) from the converged quantities: (I - Q Pi) (A Q S~ Q^T A^T + K (C P~ C^T + R) K^T) (I - Q Pi)^T.
@@ -101,11 +111,19 @@ DiscretizationBounds ComputeDiscretizationBounds(const ModelStep& truth, const E
 
   // Full filter (23) with W^(F) = Q and the perturbed one with W^(b) = Q + A M A^T.
   const DareSolution full = SolveFilterDare(A, C, Qn, R);
-  if (!full.summary.ok()) throw NumericalError("full-state DARE: " + full.summary.BriefReport());
+  if (!full.summary.ok()) {
+    AdoptOutcome(full.summary, &b.summary);
+    b.summary.message = "full-state " + b.summary.message;
+    return finish();
+  }
   MatrixXd Qb = Qn + A * M * A.transpose();
   Symmetrize(Qb);
   const DareSolution pert = SolveFilterDare(A, C, Qb, R);
-  if (!pert.summary.ok()) throw NumericalError("DARE (23) with W^(b): " + pert.summary.BriefReport());
+  if (!pert.summary.ok()) {
+    AdoptOutcome(pert.summary, &b.summary);
+    b.summary.message = "(23) with W^(b): " + b.summary.message;
+    return finish();
+  }
   b.P_full = full.P_filt;
   b.P_b = pert.P_filt;
   b.trace_delta_P = (pert.P_filt - full.P_filt).trace();
@@ -162,7 +180,8 @@ DiscretizationBounds ComputeDiscretizationBounds(const ModelStep& truth, const E
     b.remark43 = t + b.L_tilde * (phi2 * t + e2r * t * t);
   }
   b.actual = cov(schedule.P_final).trace() - full.P_filt.trace();
-  return b;
+  b.summary.termination = Termination::kConverged;
+  return finish();
 }
 
 }  // namespace kfx

@@ -390,7 +390,7 @@ TEST_P(IdenticalReduction, MatchesDenseComputation) {
   if (n <= 64) {
     const Model truth(dense, VectorXd::Zero(2 * n), MatrixXd::Identity(2 * n, 2 * n));
     const StationaryPerformance perf =
-        ExactStationaryPerformance(truth, ConstantGainFilter(dense, block.gain.ToDense(), VectorXd::Zero(2 * n)));
+        ExactStationaryPerformance(truth, ConstantGainAsLinearFilter(dense, block.gain.ToDense(), VectorXd::Zero(2 * n)));
     if (a.block_true.X.size() == 0) {
       EXPECT_FALSE(perf.exists());
     } else {

@@ -85,7 +85,7 @@ TEST(MismatchStationary, EqualsEngineJointCovarianceOnRandomMismatchedSystems) {
     ASSERT_TRUE(s.ok()) << "seed " << seed << ": " << s.message;
     EXPECT_LT(s.relative_residual, 1e-12) << "seed " << seed;
     const Model truth_model(truth, VectorXd::Zero(n), MatrixXd::Identity(n, n));
-    const LinearFilter f = ConstantGainFilter(design, s.filter_gain, VectorXd::Zero(n));
+    const LinearFilter f = ConstantGainAsLinearFilter(design, s.filter_gain, VectorXd::Zero(n));
     const StationaryPerformance engine = ExactStationaryPerformance(truth_model, f);
     ASSERT_EQ(engine.method, StationaryMethod::kJoint);
     EXPECT_MATRICES_NEAR(s.P, engine.error_cov, 1e-12 * std::max(1.0, engine.error_cov.norm())) << "seed " << seed;

@@ -108,7 +108,7 @@ TEST(ReducedOrderOneStep, PropagatedCovarianceEqualsEngineJointCovarianceOnTimeV
     const WeightSchedule L = RandomWeights(rng, ne, n, T);
     const ReducedOrderOneStep s = ComputeReducedOrderOneStep(model, L);
     PerformanceResult r;
-    const VectorXd J = WeightedCost(model, ReducedOrderOneStepFilter(s, L), L, T, &r);
+    const VectorXd J = WeightedCost(model, ReducedOrderOneStepAsLinearFilter(s, L), L, T, &r);
     for (int k = 1; k <= T; ++k) {
       const MatrixXd E = RecursionErrorMoment(s.Q[k], s.Qhat[k], L.at(k), L.pinv_at(k));
       EXPECT_LT(RelativeDifference(E, r.error_moment[k]), 1e-9) << "seed " << seed << " k " << k;
@@ -153,7 +153,7 @@ TEST(ReducedOrderOneStep, FullOrderWithIdentityWeightIsTheKalmanPredictor) {
   const Model model = RandomTimeVaryingModel(rng, n, m, T, m0);
   const WeightSchedule L(MatrixXd::Identity(n, n));
   const ReducedOrderOneStep s = ComputeReducedOrderOneStep(model, L);
-  const LinearFilter f = ReducedOrderOneStepFilter(s, L);
+  const LinearFilter f = ReducedOrderOneStepAsLinearFilter(s, L);
   const VectorXd J = WeightedCost(model, f, L, T);
   const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
   for (int k = 1; k <= T; ++k) EXPECT_NEAR(J(k) / kf.predictor(k), 1.0, 1e-9) << k;
@@ -176,7 +176,7 @@ TEST(ReducedOrderOneStep, SingularEarlyStepsUseThePseudoInverseAndNeverGiveNaN) 
   EXPECT_EQ(s.singular_steps.front(), 2);
   for (const auto& a : s.Ae) ASSERT_TRUE(a.allFinite());
   for (const auto& b : s.Be) ASSERT_TRUE(b.allFinite());
-  const VectorXd J = WeightedCost(model, ReducedOrderOneStepFilter(s, L), L, T);
+  const VectorXd J = WeightedCost(model, ReducedOrderOneStepAsLinearFilter(s, L), L, T);
   const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
   for (int k = 1; k <= T; ++k) {
     ASSERT_TRUE(std::isfinite(J(k)));
@@ -211,8 +211,8 @@ TEST(ReducedOrderTwoStep, PropagatedCovariancesEqualEngineAndGainsEqualLeastSqua
     const ReducedOrderTwoStep s = ComputeReducedOrderTwoStep(model, L);
     PerformanceResult rda, rf;
     const VectorXd Jda =
-        WeightedCost(model, ReducedOrderTwoStepFilter(s, L, TwoStepOutput::kDataAssimilation), L, T, &rda);
-    const VectorXd Jf = WeightedCost(model, ReducedOrderTwoStepFilter(s, L, TwoStepOutput::kForecast), L, T, &rf);
+        WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kDataAssimilation), L, T, &rda);
+    const VectorXd Jf = WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kForecast), L, T, &rf);
     const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
     for (int k = 1; k <= T; ++k) {
       const MatrixXd Eda = RecursionErrorMoment(s.Qda[k], s.Qhatda[k], L.at(k), L.pinv_at(k));
@@ -255,8 +255,8 @@ TEST(ReducedOrderTwoStep, FullOrderWithIdentityWeightIsTheKalmanFilterAndPredict
   const Model model = RandomTimeVaryingModel(rng, n, m, T, rng.Gaussian(n, 1));
   const WeightSchedule L(MatrixXd::Identity(n, n));
   const ReducedOrderTwoStep s = ComputeReducedOrderTwoStep(model, L);
-  const LinearFilter fda = ReducedOrderTwoStepFilter(s, L, TwoStepOutput::kDataAssimilation);
-  const LinearFilter ff = ReducedOrderTwoStepFilter(s, L, TwoStepOutput::kForecast);
+  const LinearFilter fda = ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kDataAssimilation);
+  const LinearFilter ff = ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kForecast);
   const VectorXd Jda = WeightedCost(model, fda, L, T), Jf = WeightedCost(model, ff, L, T);
   const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
   for (int k = 1; k <= T; ++k) {
@@ -382,7 +382,7 @@ TEST(SubspaceOneStep, RecursionIsTheTrueErrorCovarianceOnlyInTriangularForm) {
     const Model model = TriangularPlant(rng, U, nr, m, T, triangular);
     const SubspaceOneStep s = ComputeSubspaceOneStep(model, U, nr, L);
     PerformanceResult r;
-    const VectorXd J = WeightedCost(model, SubspaceOneStepFilter(s, U, nr), L, T, &r);
+    const VectorXd J = WeightedCost(model, SubspaceOneStepAsLinearFilter(s, U, nr), L, T, &r);
     double worst = 0.0;
     for (int k = 1; k <= T; ++k) {
       worst = std::max(worst, RelativeDifference(U * s.Q[k] * U.transpose(), r.error_moment[k]));
@@ -455,16 +455,16 @@ TEST(SubspaceEstimators, FullDimensionWithIdentityWeightIsTheKalmanFilterAndPred
   const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
   const SubspaceOneStep s1 = ComputeSubspaceOneStep(model, I, n, L);
   const SubspaceTwoStep s2 = ComputeSubspaceTwoStep(model, I, n, L);
-  const VectorXd J1 = WeightedCost(model, SubspaceOneStepFilter(s1, I, n), L, T);
-  const VectorXd Jda = WeightedCost(model, SubspaceTwoStepFilter(s2, I, n, TwoStepOutput::kDataAssimilation), L, T);
+  const VectorXd J1 = WeightedCost(model, SubspaceOneStepAsLinearFilter(s1, I, n), L, T);
+  const VectorXd Jda = WeightedCost(model, SubspaceTwoStepAsLinearFilter(s2, I, n, TwoStepOutput::kDataAssimilation), L, T);
   for (int k = 1; k <= T; ++k) {
     EXPECT_NEAR(J1(k) / kf.predictor(k), 1.0, 1e-9) << k;
     EXPECT_NEAR(Jda(k) / kf.filter(k), 1.0, 1e-9) << k;
   }
   // Same estimates on any measurement sequence (the predictor and the filter of the Kalman filter).
   const TimeSeries y = rng.Gaussian(T, m);
-  const TimeSeries e1 = RunLinearFilter(SubspaceOneStepFilter(s1, I, n), y);
-  const TimeSeries eda = RunLinearFilter(SubspaceTwoStepFilter(s2, I, n, TwoStepOutput::kDataAssimilation), y);
+  const TimeSeries e1 = RunLinearFilter(SubspaceOneStepAsLinearFilter(s1, I, n), y);
+  const TimeSeries eda = RunLinearFilter(SubspaceTwoStepAsLinearFilter(s2, I, n, TwoStepOutput::kDataAssimilation), y);
   const FilterRun run = RunFilter(model, y);
   for (int k = 1; k <= T; ++k) {
     EXPECT_LT((e1.row(k) - run.x_pred.row(k)).norm(), 1e-9 * std::max(1.0, run.x_pred.row(k).norm())) << k;
@@ -481,8 +481,8 @@ TEST(SubspaceTwoStep, RecursionEqualsEngineInTriangularFormAndRatiosAreAtLeastOn
   const SubspaceTwoStep s = ComputeSubspaceTwoStep(model, U, nr, L);
   PerformanceResult rda, rf;
   const VectorXd Jda =
-      WeightedCost(model, SubspaceTwoStepFilter(s, U, nr, TwoStepOutput::kDataAssimilation), L, T, &rda);
-  const VectorXd Jf = WeightedCost(model, SubspaceTwoStepFilter(s, U, nr, TwoStepOutput::kForecast), L, T, &rf);
+      WeightedCost(model, SubspaceTwoStepAsLinearFilter(s, U, nr, TwoStepOutput::kDataAssimilation), L, T, &rda);
+  const VectorXd Jf = WeightedCost(model, SubspaceTwoStepAsLinearFilter(s, U, nr, TwoStepOutput::kForecast), L, T, &rf);
   const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
   for (int k = 1; k <= T; ++k) {
     EXPECT_LT(RelativeDifference(U * s.Qda[k] * U.transpose(), rda.error_moment[k]), 1e-9) << k;

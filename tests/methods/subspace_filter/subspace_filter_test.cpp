@@ -159,7 +159,7 @@ TEST(SubspaceFilterTest, MonotonicityChainAndApproximation) {
     EXPECT_GE(MinEigenvalue(pert.P_filt - Pa), -1e-10 * scale);
 
     const Model truth(r.step, VectorXd::Zero(N), S);
-    const LinearFilter conv = ConvergedSubspaceFilter(r.step, r.subspace, s, VectorXd::Zero(N));
+    const LinearFilter conv = ConvergedSubspaceFilterAsLinearFilter(r.step, r.subspace, s, VectorXd::Zero(N));
     const StationaryPerformance pa = ExactStationaryPerformance(truth, conv, r.subspace.gram);
     ASSERT_TRUE(pa.exists());
     EXPECT_LT(RelativeDifference(pa.error_cov, s.P_final), 1e-8);
@@ -319,9 +319,9 @@ TEST(DampedWaveTest, PseudoinverseThresholdOnAFineMesh) {
   EXPECT_GT(tight.pinv_rank.back(), def.pinv_rank.back());
   const Model truth(st, VectorXd::Zero(N), S);
   const StationaryPerformance pd =
-      ExactStationaryPerformance(truth, ConvergedSubspaceFilter(st, p.subspace, def, VectorXd::Zero(N)), p.fine.gram);
+      ExactStationaryPerformance(truth, ConvergedSubspaceFilterAsLinearFilter(st, p.subspace, def, VectorXd::Zero(N)), p.fine.gram);
   const StationaryPerformance pt =
-      ExactStationaryPerformance(truth, ConvergedSubspaceFilter(st, p.subspace, tight, VectorXd::Zero(N)), p.fine.gram);
+      ExactStationaryPerformance(truth, ConvergedSubspaceFilterAsLinearFilter(st, p.subspace, tight, VectorXd::Zero(N)), p.fine.gram);
   ASSERT_TRUE(pd.exists() && pt.exists());
   EXPECT_NEAR(pd.weighted_mse, pt.weighted_mse, 2e-8 * pt.weighted_mse);
   std::printf(
@@ -350,10 +350,10 @@ TEST(DampedWaveTest, ReducedFilterBetweenFullAndCoarse) {
     ASSERT_TRUE(s.converged);
     const DareSolution fd = SolveFilterDare(st.A, st.C, st.Q, st.R);
     const double pf =
-        ExactStationaryPerformance(truth, ConstantGainFilter(st, fd.filter_gain, VectorXd::Zero(N)), p.fine.gram)
+        ExactStationaryPerformance(truth, ConstantGainAsLinearFilter(st, fd.filter_gain, VectorXd::Zero(N)), p.fine.gram)
             .weighted_mse;
     const double pa =
-        ExactStationaryPerformance(truth, ConvergedSubspaceFilter(st, p.subspace, s, VectorXd::Zero(N)), p.fine.gram)
+        ExactStationaryPerformance(truth, ConvergedSubspaceFilterAsLinearFilter(st, p.subspace, s, VectorXd::Zero(N)), p.fine.gram)
             .weighted_mse;
     if (nc == 5) {
       EXPECT_NEAR(pa, pf, 1e-8 * pf);
