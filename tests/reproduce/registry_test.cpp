@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "kfx/error.hpp"
+#include "support/expect_error.hpp"
 
 namespace kfx {
 namespace {
@@ -14,12 +15,8 @@ TEST(Reproduce, PaperIdsAreTheContract) {
   EXPECT_EQ(PaperIds(),
             (std::vector<std::string>{"aalto-spatial", "bernstein", "patel-toda", "aalto-temporal", "block-diagonal"}));
   for (const auto& id : PaperIds()) EXPECT_EQ(Reproduce(id, ReproduceOptions{true, "", {}}).paper, id);
-  try {
-    Reproduce("all");  // 'all' is the CLI's loop, not a paper
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("paper"), std::string::npos);
-  }
+  // 'all' is the CLI's loop, not a paper
+  EXPECT_TRUE(testing::ThrowsErrorNaming([] { Reproduce("all"); }, "paper"));
 }
 
 TEST(Reproduce, ItemStatusFromTolerance) {
