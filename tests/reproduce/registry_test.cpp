@@ -14,7 +14,8 @@ namespace {
 TEST(Reproduce, PaperIdsAreTheContract) {
   EXPECT_EQ(PaperIds(),
             (std::vector<std::string>{"aalto-spatial", "bernstein", "patel-toda", "aalto-temporal", "block-diagonal"}));
-  for (const auto& id : PaperIds()) EXPECT_EQ(Reproduce(id, ReproduceOptions{true, "", {}}).paper, id);
+  // Reproduce(id).paper == id for each id: in the paper's own test (ExpectMatchesPins), which computes the quick
+  // reproduction anyway.
   // 'all' is the CLI's loop, not a paper
   EXPECT_TRUE(testing::ThrowsErrorNaming([] { Reproduce("all"); }, "paper"));
 }
