@@ -15,10 +15,8 @@ using testing::kInfinity;
 using testing::kIterative;
 using testing::PinnedItem;
 
-// Pinned by the procedure of tests/support/reproduce_pins.hpp from `kfx reproduce aalto-spatial --quick --json` at
-// commit cfd5102 (GCC 12.2, OpenBLAS 0.3.21 Haswell kernel, AMD EPYC, OPENBLAS_NUM_THREADS=1, 2026-12-01).
-// To regenerate after a deliberate change: rerun that command, print the rows with the snippet there, paste
-// them below keeping the tolerance column, and say in the commit which values moved and why.
+// Table: `kfx reproduce aalto-spatial --quick --json` at cfd5102 (OpenBLAS 0.3.21 Haswell kernel, AMD EPYC,
+// 2026-12-01); to regenerate it after a deliberate change, follow tests/support/reproduce_pins.hpp.
 // Tolerances: kIterative for Table 1, Sec. 6.1, the spectral radii and the bounds (DAREs, Algorithm 2.3
 // schedule to a relative change of 1e-11, joint Lyapunov equations; kernel spread <= 1.3e-12). D(h) is the
 // difference of two O(1) traces, so its rounding error is absolute (~3e-12 between kernels): relative to D it

@@ -45,10 +45,8 @@ TEST(ReproduceAaltoTemporal, KeysAreTheContract) {
   }
 }
 
-// Pinned by the procedure of tests/support/reproduce_pins.hpp from `kfx reproduce aalto-temporal --quick --json` at
-// commit cfd5102 (GCC 12.2, OpenBLAS 0.3.21 Haswell kernel, AMD EPYC, OPENBLAS_NUM_THREADS=1, 2026-12-01).
-// To regenerate after a deliberate change: rerun that command, print the rows with the snippet there, paste
-// them below keeping the tolerance column, and say in the commit which values moved and why.
+// Table: `kfx reproduce aalto-temporal --quick --json` at cfd5102 (OpenBLAS 0.3.21 Haswell kernel, AMD EPYC,
+// 2026-12-01); to regenerate it after a deliberate change, follow tests/support/reproduce_pins.hpp.
 // Tolerances: kDirect (matrix exponentials, the Kalman-Bucy Hamiltonian exponential and finite recursions;
 // the 1- and 2-state examples do not reach BLAS, spread 0). err(n) is a difference of two traces, so the
 // wave-equation rows (20 states, through BLAS) move by 2.4e-10 (rough) and 7.0e-9 (smooth, err = 2e-8)

@@ -41,10 +41,8 @@ TEST(BernsteinReproduce, PrintsTheIssueKeysAndEveryRatioIsAtLeastOne) {
   }
 }
 
-// Pinned by the procedure of tests/support/reproduce_pins.hpp from `kfx reproduce bernstein --quick --json` at
-// commit cfd5102 (GCC 12.2, OpenBLAS 0.3.21 Haswell kernel, AMD EPYC, OPENBLAS_NUM_THREADS=1, 2026-12-01).
-// To regenerate after a deliberate change: rerun that command, print the rows with the snippet there, paste
-// them below keeping the tolerance column, and say in the commit which values moved and why.
+// Table: `kfx reproduce bernstein --quick --json` at cfd5102 (OpenBLAS 0.3.21 Haswell kernel, AMD EPYC,
+// 2026-12-01); to regenerate it after a deliberate change, follow tests/support/reproduce_pins.hpp.
 // Tolerances: kDirect (finite-horizon Riccati recursions and the exact-cost engine over 502 steps, no
 // convergence test; kernel spread <= 1.2e-13), except Sec. VI with n_e = 8: its three ratios move by up to
 // 4e-4, 6.1e-3 and 1.6e-3 between OpenBLAS kernels (four different values over the six kernels) although the

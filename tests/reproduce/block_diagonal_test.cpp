@@ -17,14 +17,13 @@ using testing::kMonteCarlo;
 using testing::kTimingItem;
 using testing::PinnedItem;
 
-// Pinned by the procedure of tests/support/reproduce_pins.hpp from `kfx reproduce block-diagonal --quick --json` at
-// commit cfd5102 (GCC 12.2, OpenBLAS 0.3.21 Haswell kernel, AMD EPYC, OPENBLAS_NUM_THREADS=1, 2026-12-01).
-// To regenerate after a deliberate change: rerun that command, print the rows with the snippet there, paste
-// them below keeping the tolerance column, and say in the commit which values moved and why.
+// Table: `kfx reproduce block-diagonal --quick --json` at cfd5102 (OpenBLAS 0.3.21 Haswell kernel, AMD EPYC,
+// 2026-12-01); to regenerate it after a deliberate change, follow tests/support/reproduce_pins.hpp.
 // Tolerances: kIterative for Fig. 1 (steady states of the identical-subsystem reduction, bisection for the
 // critical beta); fig1c at n = 65536 is a difference of nearly equal covariances (kernel spread 9.5e-8 at
-// beta = 1, 3.0e-9 at beta = 3.7) and is pinned at 50 x its spread. +inf where the block filter's true error
-// does not converge (beta >= 4). kMonteCarlo for the coronagraph analogue (seeded, 30 EKF steps; kernel spread
+// beta = 1, 3.0e-9 at beta = 3.7) and is pinned at 50 x its spread; +inf where the block filter's steady
+// gain is unstable on the true system (no stationary error: beta = 4 from n = 256, beta = 6 from n = 16). kMonteCarlo
+// for the coronagraph analogue (seeded, 30 EKF steps; kernel spread
 // <= 1.4e-15). The two coronagraph time ratios are wall-clock timings: only finite and positive (kTimingItem),
 // neither value nor status (block / banded is "reproduced" in some runs and "differs" in others).
 TEST(ReproduceBlockDiagonal, QuickValuesAndStatusesArePinned) {

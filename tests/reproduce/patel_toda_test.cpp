@@ -42,10 +42,8 @@ TEST(MismatchReproduce, PatelTodaPrintsTheTwelveRows) {
   }
 }
 
-// Pinned by the procedure of tests/support/reproduce_pins.hpp from `kfx reproduce patel-toda --quick --json` at
-// commit cfd5102 (GCC 12.2, OpenBLAS 0.3.21 Haswell kernel, AMD EPYC, OPENBLAS_NUM_THREADS=1, 2026-12-01).
-// To regenerate after a deliberate change: rerun that command, print the rows with the snippet there, paste
-// them below keeping the tolerance column, and say in the commit which values moved and why.
+// Table: `kfx reproduce patel-toda --quick --json` at cfd5102 (OpenBLAS 0.3.21 Haswell kernel, AMD EPYC,
+// 2026-12-01); to regenerate it after a deliberate change, follow tests/support/reproduce_pins.hpp.
 // Tolerances: kIterative (the bounds need the design's DARE and Lyapunov solutions, the extremes a search of
 // the error box; no BLAS kernel changes a digit, spread 0). The statuses matter most here: the nearest to
 // flipping is thm3.case1.pi3, 1.28e-4 from the paper against its tolerance of 1.40e-4.

@@ -9,11 +9,13 @@
 //   python3 -c 'import json,sys; [print("{\"%s\", %s, TOL, \"%s\"}," % (i["key"], "kInfinity" if i["value"]
 //     is None else "%.17g" % i["value"], i["status"])) for i in json.load(open(sys.argv[1]))["items"]]' /tmp/PAPER.json
 // (the JSON writes a non-finite value as null: the tables pin +inf, what the reproductions give) and replace
-// the rows of the table, keeping each row's tolerance (TOL) and the timing rows (kTimingItem). Tolerances:
-// the class floor of the computation (kDirect, kIterative, kMonteCarlo below), raised for an item that moves
-// more between BLAS kernels to 50 x the largest relative spread of its value over one run per OpenBLAS kernel
-// (OPENBLAS_CORETYPE=Haswell, SkylakeX, Sandybridge, Prescott, Nehalem, Zen on one machine), rounded up to
-// 1, 2 or 5 x 10^k; such rows say so in a comment. Re-measure the spread when a computation changes kind.
+// the rows of the table, keeping each row's tolerance (TOL) and the timing rows (kTimingItem); say in the
+// commit which values moved and why.
+// Tolerances: the class floor of the computation (kDirect, kIterative, kMonteCarlo below), raised for an item
+// that moves more between BLAS kernels to 50 x the largest relative spread of its value over one run per
+// OpenBLAS kernel (OPENBLAS_CORETYPE=Haswell, SkylakeX, Sandybridge, Prescott, Nehalem, Zen on one machine),
+// rounded up to 1, 2 or 5 x 10^k; such rows say so in a comment. Re-measure the spread when a computation
+// changes kind.
 #include <gtest/gtest.h>
 
 #include <cmath>
