@@ -27,18 +27,6 @@ std::string Num(double v, int precision = 4) {
   return os.str();
 }
 
-ReproduceItem Item(const std::string& key, const std::string& description, std::optional<double> published,
-                   double value, double tolerance, const std::string& note = "") {
-  ReproduceItem it;
-  it.key = key;
-  it.description = description;
-  it.published = published;
-  it.value = value;
-  it.tolerance = tolerance;
-  it.note = note;
-  return it;
-}
-
 constexpr double kTolerance = 1e-11;
 
 // The three filters of Table 1 and the Sec. 6.1 filter for one mesh pair.

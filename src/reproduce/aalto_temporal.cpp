@@ -65,15 +65,6 @@ std::vector<Example> Examples() {
   return out;
 }
 
-ReproduceItem Item(const std::string& key, const std::string& description, double value, const std::string& note = "") {
-  ReproduceItem it;
-  it.key = key;
-  it.description = description;
-  it.value = value;
-  it.note = note;
-  return it;
-}
-
 std::string Num(double v, int precision = 4) {
   std::ostringstream os;
   os.precision(precision);
@@ -120,24 +111,24 @@ PaperReport ReproduceAaltoTemporal(const ReproduceOptions& options) {
     const ConvergenceStudy st = StudyConvergence(ex.model, ex.T, opt);
     const bool noise = ex.model.B.size() > 0;
     report.items.push_back(
-        Item(ex.name + ".trPc", "tr P_c(T), Kalman-Bucy (Hamiltonian exponential + doubling)", st.tr_Pc));
+        NewItem(ex.name + ".trPc", "tr P_c(T), Kalman-Bucy (Hamiltonian exponential + doubling)", st.tr_Pc));
     std::vector<int> keys = {1, 16, 1024};
     if (ex.n_max >= 16384) keys.push_back(16384);
     for (int n : keys) {
       report.items.push_back(
-          Item(ex.name + ".err.n=" + std::to_string(n), "err(n) = tr P_{T,n} - tr P_c(T)", At(st, n)->err));
+          NewItem(ex.name + ".err.n=" + std::to_string(n), "err(n) = tr P_{T,n} - tr P_c(T)", At(st, n)->err));
     }
     report.items.push_back(
-        Item(ex.name + ".rate", "least-squares slope of log err vs log n, n >= 16", st.rate,
-             noise ? "Theorem 2 guarantees only n^-1 (leading term M1 T^2 / n)" : "Theorem 1 guarantees n^-2"));
+        NewItem(ex.name + ".rate", "least-squares slope of log err vs log n, n >= 16", st.rate,
+                noise ? "Theorem 2 guarantees only n^-1 (leading term M1 T^2 / n)" : "Theorem 1 guarantees n^-2"));
     const ConvergencePoint* p = At(st, 1024);
     const double bound = noise ? p->bounds.theorem2 : p->bounds.theorem1;
-    report.items.push_back(Item(ex.name + ".bound_over_err.n=1024",
-                                std::string(noise ? "Theorem 2 (as stated)" : "Theorem 1") + " bound / err at n = 1024",
-                                bound / p->err,
-                                "a-posteriori form, E = tr P_{T,n}; mu = " + Num(st.constants.mu, 6) +
-                                    (noise ? "; Theorem 2 as its proof gives: " + Num(p->bounds.theorem2_proof / p->err)
-                                           : "; Theorem 4: " + Num(p->bounds.theorem4 / p->err))));
+    report.items.push_back(
+        NewItem(ex.name + ".bound_over_err.n=1024",
+                std::string(noise ? "Theorem 2 (as stated)" : "Theorem 1") + " bound / err at n = 1024", bound / p->err,
+                "a-posteriori form, E = tr P_{T,n}; mu = " + Num(st.constants.mu, 6) +
+                    (noise ? "; Theorem 2 as its proof gives: " + Num(p->bounds.theorem2_proof / p->err)
+                           : "; Theorem 4: " + Num(p->bounds.theorem4 / p->err))));
     if (write) {
       const fs::path path = fs::path(options.out_dir) / (ex.name + ".csv");
       WriteCsv(path, st);
@@ -161,11 +152,11 @@ PaperReport ReproduceAaltoTemporal(const ReproduceOptions& options) {
     opt.n_values = Powers(1024);
     const ConvergenceStudy st = StudyConvergence(WaveModalModel(s2, d, R), 1.0, opt);
     report.items.push_back(
-        Item("wave." + label + ".rate",
-             "Example 1 (" + std::to_string(K) + " dyadic modes): slope of log err vs log n, n >= 16", st.rate,
-             label == "rough" ? "sigma_k^2 = 1/k^2 (x not in D(A)): no power rate in the limit K -> inf"
-                              : "sigma_k^2 = 1/(k omega_k)^2 (x in D(A)): Theorem 4 gives n^-2"));
-    report.items.push_back(Item("wave." + label + ".err.n=1024", "Example 1: err(1024)", At(st, 1024)->err));
+        NewItem("wave." + label + ".rate",
+                "Example 1 (" + std::to_string(K) + " dyadic modes): slope of log err vs log n, n >= 16", st.rate,
+                label == "rough" ? "sigma_k^2 = 1/k^2 (x not in D(A)): no power rate in the limit K -> inf"
+                                 : "sigma_k^2 = 1/(k omega_k)^2 (x in D(A)): Theorem 4 gives n^-2"));
+    report.items.push_back(NewItem("wave." + label + ".err.n=1024", "Example 1: err(1024)", At(st, 1024)->err));
     if (write) {
       const fs::path path = fs::path(options.out_dir) / ("wave_" + label + ".csv");
       WriteCsv(path, st);

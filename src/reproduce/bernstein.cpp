@@ -114,15 +114,6 @@ Curves RunChain(const Model& model, const MatrixXd& Ad, Index ne, bool reduced, 
   return c;
 }
 
-ReproduceItem Item(const std::string& key, const std::string& description, double value, const std::string& note) {
-  ReproduceItem it;
-  it.key = key;
-  it.description = description;
-  it.value = value;
-  it.note = note;
-  return it;
-}
-
 void WriteCurves(const std::filesystem::path& file, const std::vector<std::pair<std::string, const VectorXd*>>& cols) {
   std::ofstream f(file);
   f << "k";
@@ -177,9 +168,9 @@ PaperReport ReproduceBernstein(const ReproduceOptions& options) {
     for (const auto& r : rows) {
       for (int K : Ks) {
         report.items.push_back(
-            Item("sec5.ne=" + E + "." + r.first + ".k=" + std::to_string(K),
-                 std::string("Sec. V, n_e = ") + E + ", " + r.first + ": J_k / J_k^KF at k = " + std::to_string(K),
-                 (*r.second)(K), note));
+            NewItem("sec5.ne=" + E + "." + r.first + ".k=" + std::to_string(K),
+                    std::string("Sec. V, n_e = ") + E + ", " + r.first + ": J_k / J_k^KF at k = " + std::to_string(K),
+                    (*r.second)(K), note));
       }
     }
   }
@@ -187,9 +178,9 @@ PaperReport ReproduceBernstein(const ReproduceOptions& options) {
     const std::string E = std::to_string(ne6[e]);
     for (int K : Ks) {
       report.items.push_back(
-          Item("sec6.ne=" + E + ".subspace.onestep.k=" + std::to_string(K),
-               "Sec. VI (free-free), n_e = " + E + ", subspace one-step: J_k / J_k^KF at k = " + std::to_string(K),
-               c6[e].subspace_onestep(K), note));
+          NewItem("sec6.ne=" + E + ".subspace.onestep.k=" + std::to_string(K),
+                  "Sec. VI (free-free), n_e = " + E + ", subspace one-step: J_k / J_k^KF at k = " + std::to_string(K),
+                  c6[e].subspace_onestep(K), note));
     }
   }
 

@@ -43,14 +43,6 @@ std::string BetaName(double beta) {
   return os.str();
 }
 
-ReproduceItem Item(std::string key, std::string description, double value) {
-  ReproduceItem it;
-  it.key = std::move(key);
-  it.description = std::move(description);
-  it.value = value;
-  return it;
-}
-
 // ---- Sec. 3.2: a synthetic speckle-drift analogue ------------------------------------------------
 
 struct CoronagraphResult {
@@ -212,11 +204,11 @@ PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options) {
       const bool key_n = std::find(key_ns.begin(), key_ns.end(), n) != key_ns.end();
       const std::string suffix = ".beta=" + BetaName(beta) + ".n=" + std::to_string(n);
       if (key_n && std::find(keys_a.begin(), keys_a.end(), beta) != keys_a.end()) {
-        fig1a.push_back(Item("fig1a" + suffix, "||P~ - P0||_F / n, Fig. 1(a)", da));
+        fig1a.push_back(NewItem("fig1a" + suffix, "||P~ - P0||_F / n, Fig. 1(a)", da));
       }
       if (key_n && std::find(keys_b.begin(), keys_b.end(), beta) != keys_b.end()) {
-        fig1b.push_back(Item("fig1b" + suffix, "||P~ - P||_F / n, Fig. 1(b)", db));
-        fig1c.push_back(Item("fig1c" + suffix, "||E_true(block) - P0||_F / n (kfx; text of Sec. 3.1)", dc));
+        fig1b.push_back(NewItem("fig1b" + suffix, "||P~ - P||_F / n, Fig. 1(b)", db));
+        fig1c.push_back(NewItem("fig1c" + suffix, "||E_true(block) - P0||_F / n (kfx; text of Sec. 3.1)", dc));
       }
       if (options.progress) options.progress(++done, total);
     }
@@ -230,13 +222,11 @@ PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options) {
     const double mid = 0.5 * (lo + hi);
     (UnknownInputSpectralRadius(Section31(mid)) < 1 ? lo : hi) = mid;
   }
-  ReproduceItem crit =
-      Item("fig1.critical_beta", "beta above which the full KF does not decouple (rho of the unknown-input system = 1)",
-           0.5 * (lo + hi));
-  crit.note =
+  report.items.push_back(NewItem(
+      "fig1.critical_beta", "beta above which the full KF does not decouple (rho of the unknown-input system = 1)",
+      0.5 * (lo + hi),
       "the paper shows it in Fig. 1(b) between beta = 3.7 and 4 without a number; kfx derives 3.8 = 2 (1 + 0.9), "
-      "the invariant zero 0.9 - beta/2 of y_k against u_k leaving the unit disc (docs/papers/004.md)";
-  report.items.push_back(crit);
+      "the invariant zero 0.9 - beta/2 of y_k against u_k leaving the unit disc (docs/papers/004.md)"));
 
   // ---- Sec. 3.2, the coronagraph analogue ---------------------------------------------------------
   const int n_pix = quick ? 300 : 2088, steps = quick ? 30 : 40;
@@ -245,18 +235,17 @@ PaperReport ReproduceBlockDiagonal(const ReproduceOptions& options) {
   });
   const std::string where = " (synthetic analogue, n = " + std::to_string(n_pix) + ", " + std::to_string(steps) +
                             " steps, " + std::to_string(cor.probes) + " probes per step)";
-  report.items.push_back(Item("coronagraph.mse.full", "mean squared field error, full EKF" + where, cor.mse[0]));
+  report.items.push_back(NewItem("coronagraph.mse.full", "mean squared field error, full EKF" + where, cor.mse[0]));
   report.items.push_back(
-      Item("coronagraph.mse.block_diagonal", "mean squared field error, block-diagonal EKF" + where, cor.mse[1]));
-  report.items.push_back(Item("coronagraph.mse.banded", "mean squared field error, banded EKF" + where, cor.mse[2]));
+      NewItem("coronagraph.mse.block_diagonal", "mean squared field error, block-diagonal EKF" + where, cor.mse[1]));
+  report.items.push_back(NewItem("coronagraph.mse.banded", "mean squared field error, banded EKF" + where, cor.mse[2]));
   const std::string analogue_note =
       "synthetic analogue of the HCIL testbed model (not public): compare ratios, not values; docs/papers/004.md";
   auto ratio = [&](const std::string& key, const std::string& desc, double value, double published) {
-    ReproduceItem it = Item(key, desc, value);
-    it.published = published;
-    it.tolerance = 0.5;  // a factor-of-1.5-to-2 band: the model is an analogue
-    it.note = analogue_note + (quick ? "; --quick runs n = 300 pixels, so the time ratios are not comparable" : "");
-    report.items.push_back(it);
+    // Tolerance 0.5: a factor-of-1.5-to-2 band, the model is an analogue.
+    report.items.push_back(
+        Item(key, desc, published, value, 0.5,
+             analogue_note + (quick ? "; --quick runs n = 300 pixels, so the time ratios are not comparable" : "")));
   };
   ratio("coronagraph.time_ratio.full_over_block", "time per step, full / block-diagonal",
         cor.seconds[0] / cor.seconds[1], 6400);

@@ -23,14 +23,8 @@ ModelStep PatelTodaDesign() {
 }
 
 // The paper prints four significant digits: agreement to half a unit of the last digit.
-ReproduceItem Item(const std::string& key, const std::string& description, double published, double value) {
-  ReproduceItem it;
-  it.key = key;
-  it.description = description;
-  it.published = published;
-  it.value = value;
-  it.tolerance = 0.5e-3 / std::abs(published) + 1e-12;
-  return it;
+ReproduceItem FourDigitItem(const std::string& key, const std::string& description, double published, double value) {
+  return Item(key, description, published, value, 0.5e-3 / std::abs(published) + 1e-12);
 }
 
 std::string Num(double v, int precision = 5) {
@@ -67,37 +61,37 @@ PaperReport ReproducePatelToda(const ReproduceOptions& options) {
   const Theorem5Result t5 = Theorem5Bound(design, terms, np);
 
   report.items.push_back(
-      Item("thm3.case1.pi3", "Thm 3 upper bound on tr P, |dq| <= 1", 3.567, Theorem3Bound(terms, n1)));
+      FourDigitItem("thm3.case1.pi3", "Thm 3 upper bound on tr P, |dq| <= 1", 3.567, Theorem3Bound(terms, n1)));
   report.items.push_back(
-      Item("thm3.case1.least_upper", "max tr P over |dq| <= 1 (box search)", 3.519, s1.least_upper.value));
+      FourDigitItem("thm3.case1.least_upper", "max tr P over |dq| <= 1 (box search)", 3.519, s1.least_upper.value));
   report.items.push_back(
-      Item("thm3.case2.pi3", "Thm 3 upper bound on tr P, |dr| <= 0.5", 3.748, Theorem3Bound(terms, n2)));
+      FourDigitItem("thm3.case2.pi3", "Thm 3 upper bound on tr P, |dr| <= 0.5", 3.748, Theorem3Bound(terms, n2)));
   report.items.push_back(
-      Item("thm3.case2.least_upper", "max tr P over |dr| <= 0.5 (box search)", 3.644, s2.least_upper.value));
-  ReproduceItem it = Item("thm4.case1.pi4", "Thm 4 lower bound on tr P_F, |dq| <= 1", 2.206, pi4_1);
+      FourDigitItem("thm3.case2.least_upper", "max tr P over |dr| <= 0.5 (box search)", 3.644, s2.least_upper.value));
+  ReproduceItem it = FourDigitItem("thm4.case1.pi4", "Thm 4 lower bound on tr P_F, |dq| <= 1", 2.206, pi4_1);
   it.note = "(34)-(37) as printed (l = 1 in (37)) give " + Num(pi4_1) + "; with (1/n)[tr A]^2 in place of " +
             "sum |lambda_i(A)|^2 in (36) (Lemma 2, as in Thm 6) they give " + Num(pi4_1t) + ", the published digits";
   report.items.push_back(it);
-  report.items.push_back(
-      Item("thm4.case1.greatest_lower", "min tr P_F over |dq| <= 1 (box search)", 3.295, s1.greatest_lower.value));
-  it = Item("thm4.case2.pi4", "Thm 4 lower bound on tr P_F, |dr| <= 0.5", 2.432, pi4_2);
+  report.items.push_back(FourDigitItem("thm4.case1.greatest_lower", "min tr P_F over |dq| <= 1 (box search)", 3.295,
+                                       s1.greatest_lower.value));
+  it = FourDigitItem("thm4.case2.pi4", "Thm 4 lower bound on tr P_F, |dr| <= 0.5", 2.432, pi4_2);
   it.note = "as printed " + Num(pi4_2) + "; with (1/n)[tr A]^2 for sum |lambda_i(A)|^2: " + Num(pi4_2t) +
             ", the published digits";
   report.items.push_back(it);
-  report.items.push_back(
-      Item("thm4.case2.greatest_lower", "min tr P_F over |dr| <= 0.5 (box search)", 3.171, s2.greatest_lower.value));
-  it = Item("thm5.pi5", "Thm 5 upper bound on tr P, |da_M1| <= 0.1", 4.246, t5.pi5_printed);
+  report.items.push_back(FourDigitItem("thm4.case2.greatest_lower", "min tr P_F over |dr| <= 0.5 (box search)", 3.171,
+                                       s2.greatest_lower.value));
+  it = FourDigitItem("thm5.pi5", "Thm 5 upper bound on tr P, |da_M1| <= 0.1", 4.246, t5.pi5_printed);
   it.note = "Lemma (41) as printed: beta = " + Num(t5.lemma.beta_printed) + " (kappa = " + Num(t5.lemma.kappa) +
             " for unit eigenvectors, sigma = " + Num(t5.lemma.sigma) + ", |U_M|_s = " + Num(t5.lemma.UM_norm) +
             "); no reading found reproduces 4.246 (docs/papers/002.md); the sound Lemma bound |U_M|/2/(1 - x), x = " +
             Num(t5.lemma.x, 4) + ", gives beta = " + Num(t5.lemma.beta) + " and pi5 = " + Num(t5.pi5);
   report.items.push_back(it);
   report.items.push_back(
-      Item("thm5.least_upper", "max tr P over |da_M1| <= 0.1 (box search)", 3.450, sp.least_upper.value));
+      FourDigitItem("thm5.least_upper", "max tr P over |da_M1| <= 0.1 (box search)", 3.450, sp.least_upper.value));
   report.items.push_back(
-      Item("thm6.pi6", "Thm 6 lower bound on tr P_F, |da_M1| <= 0.1", 2.506, Theorem6Bound(design, np)));
-  report.items.push_back(
-      Item("thm6.greatest_lower", "min tr P_F over |da_M1| <= 0.1 (box search)", 3.390, sp.greatest_lower.value));
+      FourDigitItem("thm6.pi6", "Thm 6 lower bound on tr P_F, |da_M1| <= 0.1", 2.506, Theorem6Bound(design, np)));
+  report.items.push_back(FourDigitItem("thm6.greatest_lower", "min tr P_F over |da_M1| <= 0.1 (box search)", 3.390,
+                                       sp.greatest_lower.value));
 
   auto where = [](const ErrorBoxExtreme& e, const std::string& name, double dv) {
     return name + " = " + Num(dv, 6) + (e.at_corner ? " (corner)" : " (interior)");

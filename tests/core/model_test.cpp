@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "kfx/error.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -25,17 +26,6 @@ ModelStep GoodStep() {
   return MakeStep(A, C, Q, MatrixXd::Identity(1, 1));
 }
 
-// Expects construction to throw kfx::Error whose message contains `name`.
-template <typename F>
-void ExpectErrorNaming(F f, const std::string& name) {
-  try {
-    f();
-    ADD_FAILURE() << "expected kfx::Error naming '" << name << "'";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << "message: " << e.what();
-  }
-}
-
 TEST(Model, TimeInvariantAccessors) {
   Model m(GoodStep(), VectorXd::Zero(2), MatrixXd::Identity(2, 2));
   EXPECT_EQ(m.state_dim(), 2);
@@ -43,8 +33,8 @@ TEST(Model, TimeInvariantAccessors) {
   EXPECT_TRUE(m.time_invariant());
   EXPECT_EQ(m.horizon(), -1);
   EXPECT_EQ(m.step(1).get(), m.step(1000).get());  // shared, not copied
-  ExpectErrorNaming([&] { m.step(0); }, "k");
-  ExpectErrorNaming([&] { m.ResolveSteps(-1); }, "steps");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { m.step(0); }, "k"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { m.ResolveSteps(-1); }, "steps"));
 }
 
 TEST(Model, SequenceAndCallbackAgree) {
@@ -59,8 +49,8 @@ TEST(Model, SequenceAndCallbackAgree) {
       2, 1, [&](int k) { return steps[static_cast<size_t>(k - 1)]; }, VectorXd::Zero(2), MatrixXd::Identity(2, 2), 4);
   EXPECT_EQ(seq.horizon(), 4);
   for (int k = 1; k <= 4; ++k) EXPECT_MATRICES_NEAR(seq.step(k)->A, fun.step(k)->A, 0.0);
-  ExpectErrorNaming([&] { seq.step(5); }, "k");
-  ExpectErrorNaming([&] { seq.ResolveSteps(5); }, "steps");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { seq.step(5); }, "k"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { seq.ResolveSteps(5); }, "steps"));
 }
 
 TEST(Model, NoiseInputSetsQ) {
@@ -71,7 +61,7 @@ TEST(Model, NoiseInputSetsQ) {
   Model m(s, VectorXd::Zero(3), MatrixXd::Zero(3, 3));  // P0 = 0 is allowed (PSD)
   ModelStep bad = s;
   bad.Q(0, 0) += 1.0;
-  ExpectErrorNaming([&] { Model(bad, VectorXd::Zero(3), MatrixXd::Zero(3, 3)); }, "Q");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(bad, VectorXd::Zero(3), MatrixXd::Zero(3, 3)); }, "Q"));
 }
 
 TEST(Model, EveryValidationErrorNamesItsArgument) {
@@ -84,33 +74,40 @@ TEST(Model, EveryValidationErrorNamesItsArgument) {
     mutate(s);
     return s;
   };
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.A = MatrixXd::Identity(2, 3); }), m0, P0); }, "A");
-  ExpectErrorNaming([&] { Model(with([&](ModelStep& s) { s.A(1, 0) = nan; }), m0, P0); }, "A");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.C = MatrixXd::Ones(1, 3); }), m0, P0); }, "C");
-  ExpectErrorNaming([&] { Model(with([&](ModelStep& s) { s.C(0, 1) = inf; }), m0, P0); }, "C");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q = MatrixXd::Identity(3, 3); }), m0, P0); }, "Q");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 1) = 0.9; }), m0, P0); }, "symmetric");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "Q");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "semidefinite");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); }, "R");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); },
-                    "positive definite");
-  ExpectErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Identity(2, 2); }), m0, P0); }, "R");
-  ExpectErrorNaming([&] { Model(with([&](ModelStep& s) { s.R(0, 0) = nan; }), m0, P0); }, "R");
-  ExpectErrorNaming([&] { Model(GoodStep(), VectorXd::Zero(3), P0); }, "m0");
-  ExpectErrorNaming([&] { Model(GoodStep(), VectorXd::Constant(2, nan), P0); }, "m0");
-  ExpectErrorNaming([&] { Model(GoodStep(), m0, MatrixXd::Identity(3, 3)); }, "P0");
-  ExpectErrorNaming([&] { Model(GoodStep(), m0, -MatrixXd::Identity(2, 2)); }, "P0");
-  ExpectErrorNaming([&] { Model(std::vector<ModelStep>{}, m0, P0); }, "steps");
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] { Model(with([](ModelStep& s) { s.A = MatrixXd::Identity(2, 3); }), m0, P0); }, "A"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(with([&](ModelStep& s) { s.A(1, 0) = nan; }), m0, P0); }, "A"));
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { Model(with([](ModelStep& s) { s.C = MatrixXd::Ones(1, 3); }), m0, P0); }, "C"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(with([&](ModelStep& s) { s.C(0, 1) = inf; }), m0, P0); }, "C"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] { Model(with([](ModelStep& s) { s.Q = MatrixXd::Identity(3, 3); }), m0, P0); }, "Q"));
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 1) = 0.9; }), m0, P0); }, "symmetric"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "Q"));
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { Model(with([](ModelStep& s) { s.Q(0, 0) = -1; }), m0, P0); }, "semidefinite"));
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); }, "R"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Zero(1, 1); }), m0, P0); },
+                                         "positive definite"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] { Model(with([](ModelStep& s) { s.R = MatrixXd::Identity(2, 2); }), m0, P0); }, "R"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(with([&](ModelStep& s) { s.R(0, 0) = nan; }), m0, P0); }, "R"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(GoodStep(), VectorXd::Zero(3), P0); }, "m0"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(GoodStep(), VectorXd::Constant(2, nan), P0); }, "m0"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(GoodStep(), m0, MatrixXd::Identity(3, 3)); }, "P0"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(GoodStep(), m0, -MatrixXd::Identity(2, 2)); }, "P0"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(std::vector<ModelStep>{}, m0, P0); }, "steps"));
   // A bad step in a sequence is named by its index.
   std::vector<ModelStep> steps(3, GoodStep());
   steps[2].R(0, 0) = -1;
-  ExpectErrorNaming([&] { Model(steps, m0, P0); }, "step 3: R");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(steps, m0, P0); }, "step 3: R"));
   // Callback steps are validated when asked for.
   Model fun(
       2, 1, [&](int) { return steps[2]; }, m0, P0);
-  ExpectErrorNaming([&] { fun.step(1); }, "step 1: R");
-  ExpectErrorNaming([&] { Model(2, 1, Model::StepFunction(), m0, P0); }, "function");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { fun.step(1); }, "step 1: R"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(2, 1, Model::StepFunction(), m0, P0); }, "function"));
 }
 
 }  // namespace

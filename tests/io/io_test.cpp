@@ -14,6 +14,7 @@
 
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -46,13 +47,7 @@ class IoTestBase : public ::testing::Test {
   }
   // Expects ReadTimeSeries to throw a kfx::Error whose message holds the path and every one of `texts`.
   static void ExpectReadError(const std::string& path, const std::vector<std::string>& texts) {
-    try {
-      ReadTimeSeries(path);
-      ADD_FAILURE() << "expected kfx::Error for " << path;
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-      for (const std::string& t : texts) EXPECT_NE(std::string(e.what()).find(t), std::string::npos) << e.what();
-    }
+    EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadTimeSeries(path); }, path, texts));
   }
 
   fs::path dir_;
@@ -185,12 +180,8 @@ TEST_F(CsvTest, WriteRejectsBadColumnNames) {
   EXPECT_THROW(WriteTimeSeries(Path("y.csv"), y, {"#a", "b"}), Error);
   EXPECT_THROW(WriteTimeSeries(Path("y.csv"), TimeSeries(0, 2)), Error);  // nothing to read back
   EXPECT_THROW(WriteTimeSeries(Path("y.csv"), TimeSeries(3, 0)), Error);
-  try {
-    WriteTimeSeries(Path("no/such/dir/y.csv"), y);
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(Path("no/such/dir/y.csv")), std::string::npos) << e.what();
-  }
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { WriteTimeSeries(Path("no/such/dir/y.csv"), y); }, Path("no/such/dir/y.csv")));
   // A header-only file round-trips to zero rows.
   WriteTimeSeries(Path("h.csv"), TimeSeries(0, 2), {"a", "b"});
   EXPECT_EQ(ReadTimeSeries(Path("h.csv")).cols(), 2);
@@ -236,13 +227,9 @@ TEST_F(TimeSeriesIoTest, FormatIsChosenByExtension) {
   EXPECT_EQ(Read(Path("upper.CSV")), "1,1\n1,1\n");
   EXPECT_MATRICES_NEAR(ReadTimeSeries(Path("upper.CSV")), y, 0.0);
   for (const char* name : {"y.txt", "y", "y.npz", "y.csv.gz"}) {
-    try {
-      WriteTimeSeries(Path(name), y);
-      ADD_FAILURE() << name;
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(Path(name)), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("expected .npy or .csv"), std::string::npos) << e.what();
-    }
+    EXPECT_TRUE(
+        testing::ThrowsErrorNaming([&] { WriteTimeSeries(Path(name), y); }, Path(name), {"expected .npy or .csv"}))
+        << name;
     ExpectReadError(Write(name, "1\n"), {"unknown time-series file extension"});
   }
   // A CSV file named .npy is not a .npy file.
@@ -275,12 +262,8 @@ TEST_F(AtomicOutputTest, CommitReplacesAndWritersLeaveNoTemporary) {
 
 TEST_F(AtomicOutputTest, FailedRenameIsAnErrorAndLeavesNoTemporary) {
   fs::create_directories(dir_ / "x.npy" / "inside");  // a non-empty directory where the file should go
-  try {
-    WriteTimeSeries(Path("x.npy"), TimeSeries::Ones(2, 1));
-    ADD_FAILURE() << "expected kfx::Error";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(Path("x.npy")), std::string::npos) << e.what();
-  }
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { WriteTimeSeries(Path("x.npy"), TimeSeries::Ones(2, 1)); }, Path("x.npy")));
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
   EXPECT_THROW({ AtomicOutputFile f(Path("no-such-dir/y.csv")); }, Error);
 }

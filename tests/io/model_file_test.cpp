@@ -19,6 +19,7 @@
 #include "kfx/io.hpp"
 #include "kfx/model.hpp"
 #include "kfx/riccati.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -80,14 +81,7 @@ class ModelFileTest : public ::testing::Test {
     ExpectLoadErrorAt(path, texts);
   }
   static void ExpectLoadErrorAt(const std::string& path, const std::vector<std::string>& texts) {
-    try {
-      LoadModel(path);
-      ADD_FAILURE() << "expected kfx::Error containing '" << texts.front() << "'";
-    } catch (const Error& e) {
-      const std::string what = e.what();
-      EXPECT_EQ(what.rfind(path + ": ", 0), 0u) << what;
-      for (const std::string& t : texts) EXPECT_NE(what.find(t), std::string::npos) << what;
-    }
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { LoadModel(path); }, path + ": ", texts));
   }
 
   fs::path dir_;
@@ -320,12 +314,8 @@ TEST_F(ModelFileTest, SavesCallbackModelsOverGivenSteps) {
                     Eigen::MatrixXd::Constant(1, 1, 0.1 * k), Eigen::MatrixXd::Ones(1, 1));
   };
   const Model unbounded(1, 1, f, Eigen::VectorXd::Zero(1), Eigen::MatrixXd::Ones(1, 1));
-  try {
-    SaveModel(Path("f.json"), unbounded);
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(Path("f.json") + ": SaveModelOptions::steps"), std::string::npos) << e.what();
-  }
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SaveModel(Path("f.json"), unbounded); },
+                                         Path("f.json") + ": SaveModelOptions::steps"));
   SaveModelOptions options;
   options.steps = 4;
   SaveModel(Path("f.json"), unbounded, options);

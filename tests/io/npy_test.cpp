@@ -18,6 +18,7 @@
 
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -77,13 +78,7 @@ class NpyTest : public ::testing::Test {
   void ExpectReadError(const std::string& bytes, const std::string& text) {
     const std::string path = Path("bad.npy");
     WriteBytes(path, bytes);
-    try {
-      ReadNpy(path);
-      ADD_FAILURE() << "expected kfx::Error containing '" << text << "'";
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
-    }
+    EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadNpy(path); }, path, {text}));
   }
 
   fs::path dir_;
@@ -267,13 +262,7 @@ TEST_F(NpyTest, RejectsUnsupportedDtypesNamingFileAndDtype) {
       {"structured.npy", "structured array"},
   };
   for (const auto& [file, text] : cases) {
-    try {
-      ReadNpy(kData + file);
-      ADD_FAILURE() << file;
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(kData + file), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
-    }
+    EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadNpy(kData + file); }, kData + file, {text})) << file;
   }
   const std::string data = DoubleBytes({1});
   ExpectReadError(MakeNpy("{'descr': '<f2', 'fortran_order': False, 'shape': (4,)}", data), "'<f2' (half precision)");
@@ -305,12 +294,7 @@ TEST_F(NpyTest, RejectsWrongMagicVersionAndEmptyFile) {
   bad_version[6] = '\x04';
   ExpectReadError(bad_version, "unsupported .npy format version 4.0");
   const std::string missing = Path("does_not_exist.npy");
-  try {
-    ReadNpy(missing);
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(missing + ": cannot open"), std::string::npos) << e.what();
-  }
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadNpy(missing); }, missing + ": cannot open"));
 }
 
 TEST_F(NpyTest, RejectsMalformedHeaders) {
@@ -406,12 +390,8 @@ TEST_F(NpyTest, CorruptedFilesReadOrThrowKfxError) {
 TEST_F(NpyTest, WriteErrorsNameThePath) {
   const std::string bad_dir = Path("no_such_dir/x.npy");
   const double x = 1.0;
-  try {
-    WriteNpy(bad_dir, {1}, &x);
-    ADD_FAILURE();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(bad_dir + ": cannot open file for writing"), std::string::npos) << e.what();
-  }
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { WriteNpy(bad_dir, {1}, &x); }, bad_dir + ": cannot open file for writing"));
   EXPECT_THROW(WriteNpy(Path("n.npy"), {-1}, &x), Error);
   EXPECT_THROW(WriteNpy(Path("n.npy"), {2}, nullptr), Error);
   EXPECT_THROW(WriteNpy(Path("n.npy"), {4611686018427387904, 4}, &x), Error);

@@ -6,10 +6,10 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <limits>
-#include <string>
 
 #include "kfx/error.hpp"
 #include "kfx/riccati.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -121,42 +121,35 @@ TEST(LyapunovShapes, EmptyMatrixGivesEmptySolution) {
   EXPECT_EQ(SpectralRadius(MatrixXd(0, 0)), 0.0);
 }
 
-void ExpectErrorStartingWith(const std::string& prefix, const MatrixXd& A, const MatrixXd& Q,
-                             const std::string& also = "") {
-  try {
-    SolveDiscreteLyapunov(A, Q);
-    ADD_FAILURE() << "expected kfx::Error starting with " << prefix;
-  } catch (const Error& e) {
-    const std::string what = e.what();
-    EXPECT_EQ(what.rfind(prefix, 0), 0u) << what;
-    if (!also.empty()) {
-      EXPECT_NE(what.find(also), std::string::npos) << what;
-    }
-  }
+// The call SolveDiscreteLyapunov(A, Q), for testing::ThrowsErrorStartingWith.
+auto Solving(const MatrixXd& A, const MatrixXd& Q) {
+  return [A, Q] { SolveDiscreteLyapunov(A, Q); };
 }
 
 TEST(LyapunovSingular, ReciprocalEigenvaluesThrowWithTheSpectralRadius) {
   const MatrixXd rot = Eigen::Rotation2Dd(0.4).toRotationMatrix();  // lambda lambda-bar = 1
-  ExpectErrorStartingWith("A:", MatrixXd::Identity(3, 3), MatrixXd::Identity(3, 3), "spectral radius 1");
-  ExpectErrorStartingWith("A:", (MatrixXd(2, 2) << 2, 1, 0, 0.5).finished(), MatrixXd::Identity(2, 2),
-                          "spectral radius 2");
-  ExpectErrorStartingWith("A:", rot, MatrixXd::Identity(2, 2), "spectral radius");
-  ExpectErrorStartingWith("A:", -MatrixXd::Identity(1, 1), MatrixXd::Identity(1, 1), "spectral radius 1");
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(MatrixXd::Identity(3, 3), MatrixXd::Identity(3, 3)),
+                                               "A:", {"spectral radius 1"}));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+      Solving((MatrixXd(2, 2) << 2, 1, 0, 0.5).finished(), MatrixXd::Identity(2, 2)), "A:", {"spectral radius 2"}));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(rot, MatrixXd::Identity(2, 2)), "A:", {"spectral radius"}));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(-MatrixXd::Identity(1, 1), MatrixXd::Identity(1, 1)),
+                                               "A:", {"spectral radius 1"}));
 }
 
 TEST(LyapunovValidation, InvalidInputThrowsNamingTheArgument) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   MatrixXd A = 0.5 * MatrixXd::Identity(2, 2);
   const MatrixXd Q = MatrixXd::Identity(2, 2);
-  ExpectErrorStartingWith("A:", MatrixXd::Ones(2, 3), Q);
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(MatrixXd::Ones(2, 3), Q), "A:"));
   MatrixXd bad = A;
   bad(0, 1) = nan;
-  ExpectErrorStartingWith("A:", bad, Q);
-  ExpectErrorStartingWith("Q:", A, MatrixXd::Identity(3, 3));
-  ExpectErrorStartingWith("Q:", A, (MatrixXd(2, 2) << 1, 1, 0, 1).finished());
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(bad, Q), "A:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(A, MatrixXd::Identity(3, 3)), "Q:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(A, (MatrixXd(2, 2) << 1, 1, 0, 1).finished()), "Q:"));
   bad = Q;
   bad(1, 1) = std::numeric_limits<double>::infinity();
-  ExpectErrorStartingWith("Q:", A, bad);
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(A, bad), "Q:"));
   EXPECT_THROW(SpectralRadius(MatrixXd::Ones(2, 3)), Error);
 }
 

@@ -15,6 +15,7 @@
 
 #include "kfx/error.hpp"
 #include "kfx/riccati.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -409,18 +410,6 @@ TEST(DareIterationLimit, ReportsNotConverged) {
 }
 
 // ------------------------------------------------------------------------------------------------
-// Invalid input throws kfx::Error whose message starts with the argument's name.
-
-void ExpectErrorNaming(const std::string& name, const std::function<void()>& call) {
-  try {
-    call();
-    ADD_FAILURE() << "expected kfx::Error naming " << name;
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()).rfind(name + ":", 0), 0u) << e.what();
-  }
-}
-
-// ------------------------------------------------------------------------------------------------
 // The Lyapunov stability certificate (CertifyStability; docs/riccati.md). Oracle: DGEEV / Eigen's
 // eigenvalues of the same F, and DARE solutions whose stability is known in closed form.
 
@@ -551,9 +540,11 @@ TEST(StabilityCertificate, CannotDecideMarginalOrSingularCasesButNeverClaimsStab
   EXPECT_TRUE(CertifyStability(0.5 * rot, MatrixXd::Identity(2, 2) * (1 / 0.75), 1e-3).certified());
   // Empty and invalid input.
   EXPECT_TRUE(CertifyStability(MatrixXd(0, 0), MatrixXd(0, 0)).certified());
-  ExpectErrorNaming("F", [&] { CertifyStability(MatrixXd::Ones(2, 3), MatrixXd::Identity(2, 2)); });
-  ExpectErrorNaming("X", [&] { CertifyStability(rot, MatrixXd::Identity(3, 3)); });
-  ExpectErrorNaming("perturbation", [&] { CertifyStability(rot, MatrixXd::Identity(2, 2), -1.0); });
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+      [&] { CertifyStability(MatrixXd::Ones(2, 3), MatrixXd::Identity(2, 2)); }, "F:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { CertifyStability(rot, MatrixXd::Identity(3, 3)); }, "X:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { CertifyStability(rot, MatrixXd::Identity(2, 2), -1.0); },
+                                               "perturbation:"));
 }
 
 TEST(DareCertificate, SingularNoiseFallsBackToTheEigenvalues) {
@@ -579,33 +570,37 @@ TEST(DareValidation, EveryInvalidInputThrowsNamingTheArgument) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
   MatrixXd bad;
-  ExpectErrorNaming("A", [&] { SolveFilterDare(MatrixXd::Ones(2, 3), C, Q, R); });
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(MatrixXd::Ones(2, 3), C, Q, R); }, "A:"));
   bad = A;
   bad(1, 0) = nan;
-  ExpectErrorNaming("A", [&] { SolveFilterDare(bad, C, Q, R); });
-  ExpectErrorNaming("C", [&] { SolveFilterDare(A, MatrixXd::Ones(1, 3), Q, R); });
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(bad, C, Q, R); }, "A:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, MatrixXd::Ones(1, 3), Q, R); }, "C:"));
   bad = C;
   bad(0, 1) = inf;
-  ExpectErrorNaming("C", [&] { SolveFilterDare(A, bad, Q, R); });
-  ExpectErrorNaming("Q", [&] { SolveFilterDare(A, C, MatrixXd::Identity(3, 3), R); });
-  ExpectErrorNaming("Q", [&] { SolveFilterDare(A, C, (MatrixXd(2, 2) << 1, 0.5, 0, 1).finished(), R); });
-  ExpectErrorNaming("Q", [&] { SolveFilterDare(A, C, (MatrixXd(2, 2) << 1, 0, 0, -1).finished(), R); });
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, bad, Q, R); }, "C:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, C, MatrixXd::Identity(3, 3), R); }, "Q:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+      [&] { SolveFilterDare(A, C, (MatrixXd(2, 2) << 1, 0.5, 0, 1).finished(), R); }, "Q:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+      [&] { SolveFilterDare(A, C, (MatrixXd(2, 2) << 1, 0, 0, -1).finished(), R); }, "Q:"));
   bad = Q;
   bad(0, 0) = nan;
-  ExpectErrorNaming("Q", [&] { SolveFilterDare(A, C, bad, R); });
-  ExpectErrorNaming("R", [&] { SolveFilterDare(A, C, Q, MatrixXd::Identity(2, 2)); });
-  ExpectErrorNaming("R", [&] { SolveFilterDare(A, C, Q, MatrixXd::Zero(1, 1)); });
-  ExpectErrorNaming("R", [&] { SolveFilterDare(A, C, Q, MatrixXd::Constant(1, 1, -1)); });
-  ExpectErrorNaming("R", [&] {
-    SolveFilterDare(A, MatrixXd::Ones(2, 2), MatrixXd::Identity(2, 2), (MatrixXd(2, 2) << 1, 1, 1, 1).finished());
-  });  // singular
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, C, bad, R); }, "Q:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, C, Q, MatrixXd::Identity(2, 2)); }, "R:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, C, Q, MatrixXd::Zero(1, 1)); }, "R:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, C, Q, MatrixXd::Constant(1, 1, -1)); }, "R:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+      [&] {
+        SolveFilterDare(A, MatrixXd::Ones(2, 2), MatrixXd::Identity(2, 2), (MatrixXd(2, 2) << 1, 1, 1, 1).finished());
+      },
+      "R:"));  // singular
   const auto with_options = [&](const std::function<void(DareOptions&)>& edit) {
     DareOptions options;
     edit(options);
     std::string why;
     EXPECT_FALSE(options.IsValid(&why));
     EXPECT_FALSE(why.empty());
-    ExpectErrorNaming("options", [&] { SolveFilterDare(A, C, Q, R, options); });
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SolveFilterDare(A, C, Q, R, options); }, "options:"));
   };
   with_options([](DareOptions& o) { o.max_iterations = 0; });
   with_options([](DareOptions& o) { o.max_iterations = 201; });
@@ -629,8 +624,9 @@ TEST(DareResidual, IsZeroAtTheSolutionAndValidatesItsInput) {
   const double wrong = 2 * p;
   const double expected = std::abs(wrong - (2.25 * wrong * 0.7 / (4 * wrong + 0.7) + 0.3)) / wrong;
   EXPECT_NEAR(FilterDareResidual(A, C, Q, R, MatrixXd::Constant(1, 1, wrong)), expected, 1e-15);
-  ExpectErrorNaming("P", [&] { FilterDareResidual(A, C, Q, R, MatrixXd::Ones(2, 2)); });
-  ExpectErrorNaming("C", [&] { FilterDareResidual(A, MatrixXd::Ones(1, 2), Q, R, MatrixXd::Ones(1, 1)); });
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { FilterDareResidual(A, C, Q, R, MatrixXd::Ones(2, 2)); }, "P:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+      [&] { FilterDareResidual(A, MatrixXd::Ones(1, 2), Q, R, MatrixXd::Ones(1, 1)); }, "C:"));
 }
 
 TEST(DareReport, NamesStatusAndMethod) {

@@ -14,6 +14,7 @@
 #include "kfx/performance.hpp"
 #include "kfx/riccati.hpp"
 #include "kfx/simulation.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -464,13 +465,8 @@ TEST(CoupledSystemValidation, BadInputNamesTheArgument) {
   TestRng rng(90);
   const CoupledStep good = RandomStep(rng, 3, 2, 1, 2);
   const MatrixXd P0 = PackedSpd(rng, 2, 3, 0.1);
-  auto expect_error = [&](CoupledStep s, const std::string& needle) {
-    try {
-      CoupledSystem sys(std::move(s), VectorXd::Zero(6), P0);
-      ADD_FAILURE() << "no error for " << needle;
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-    }
+  auto expect_error = [&](const CoupledStep& s, const std::string& needle) {
+    EXPECT_TRUE(testing::ThrowsErrorNaming([&] { CoupledSystem(s, VectorXd::Zero(6), P0); }, needle));
   };
   CoupledStep s = good;
   s.H = MatrixXd::Zero(1, 5);

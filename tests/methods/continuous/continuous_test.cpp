@@ -5,7 +5,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <string>
 #include <vector>
 
 #include "kfx/continuous.hpp"
@@ -15,6 +14,7 @@
 #include "kfx/performance.hpp"
 #include "kfx/sampling_convergence.hpp"
 #include "kfx/simulation.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -71,51 +71,42 @@ ContinuousModel RandomModel(testing::TestRng& rng, int p, int q, int r, double s
   return m;
 }
 
-template <typename F>
-void ExpectErrorMentions(F&& f, const std::string& name) {
-  try {
-    f();
-    ADD_FAILURE() << "no kfx::Error thrown; expected one naming " << name;
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
-  }
-}
-
 // ------------------------------------------------------------------------------------------------
 TEST(ContinuousModel, ValidationNamesTheArgument) {
   const ContinuousModel good = Oscillator(true);
   EXPECT_NO_THROW(ValidateContinuousModel(good));
   ContinuousModel m = good;
   m.A = MatrixXd::Zero(2, 3);
-  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "A");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateContinuousModel(m); }, "A"));
   m = good;
   m.R = M1(0.0);
-  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "R");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateContinuousModel(m); }, "R"));
   m = good;
   m.P0(0, 1) = 0.5;
-  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "P0");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateContinuousModel(m); }, "P0"));
   m = Oscillator(false);
   m.B = MatrixXd();
   m.Q = MatrixXd();
   EXPECT_NO_THROW(ValidateContinuousModel(m));  // empty B and Q: no input noise
   EXPECT_EQ(m.ProcessNoise().norm(), 0.0);
   m.Q = M1(1.0);
-  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "B");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateContinuousModel(m); }, "B"));
   m = good;
   m.Q = M1(-1.0);
-  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "Q");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateContinuousModel(m); }, "Q"));
   m = good;
   m.C(0, 0) = std::numeric_limits<double>::quiet_NaN();
-  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "C");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateContinuousModel(m); }, "C"));
   m = good;
   m.m0 = VectorXd::Zero(3);
-  ExpectErrorMentions([&] { ValidateContinuousModel(m); }, "m0");
-  ExpectErrorMentions([&] { SampledModel(good, std::vector<double>{0.1, 0.3, 0.3}); }, "times");
-  ExpectErrorMentions([&] { SampledModel(good, std::vector<double>{0.0, 0.3}); }, "times");
-  ExpectErrorMentions([&] { SampledModel(good, -1.0, 4); }, "T");
-  ExpectErrorMentions([&] { SampledModel(good, 1.0, 0); }, "n");
-  ExpectErrorMentions([&] { KalmanBucyCovariance(good, std::numeric_limits<double>::infinity()); }, "T");
-  ExpectErrorMentions([&] { RunKalmanBucy(good, 1.0, TimeSeries::Zero(4, 2)); }, "dy");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateContinuousModel(m); }, "m0"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SampledModel(good, std::vector<double>{0.1, 0.3, 0.3}); }, "times"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SampledModel(good, std::vector<double>{0.0, 0.3}); }, "times"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SampledModel(good, -1.0, 4); }, "T"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SampledModel(good, 1.0, 0); }, "n"));
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { KalmanBucyCovariance(good, std::numeric_limits<double>::infinity()); }, "T"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { RunKalmanBucy(good, 1.0, TimeSeries::Zero(4, 2)); }, "dy"));
 }
 
 // ------------------------------------------------------------------------------------------------

@@ -7,12 +7,12 @@
 
 #include <cmath>
 #include <random>
-#include <string>
 
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/performance.hpp"
 #include "kfx/riccati.hpp"
+#include "support/expect_error.hpp"
 #include "support/matrix_testing.hpp"
 
 namespace kfx {
@@ -353,46 +353,46 @@ TEST(MismatchErrorBox, PlantBoxSearchIsAtLeastTheGridExtreme) {
 
 // ---- invalid input -----------------------------------------------------------------------------
 
-template <typename F>
-void ExpectErrorNaming(F f, const std::string& name) {
-  try {
-    f();
-    ADD_FAILURE() << "expected kfx::Error naming " << name;
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
-  }
-}
-
 TEST(MismatchInput, BadInputThrowsNamingTheArgument) {
   TestRng rng(1001);
   const ModelStep design = RandomStep(rng, 2, 1, 0, 0.5);
-  ExpectErrorNaming([&] { ApplyModelingErrors(design, {MatrixXd::Zero(3, 3), {}, {}, {}}); }, "errors.A");
-  ExpectErrorNaming([&] { ApplyModelingErrors(design, {{}, {}, {}, MatrixXd::Constant(1, 1, 100.0)}); }, "R");
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] {
+        ApplyModelingErrors(design, {MatrixXd::Zero(3, 3), {}, {}, {}});
+      },
+      "errors.A"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] {
+        ApplyModelingErrors(design, {{}, {}, {}, MatrixXd::Constant(1, 1, 100.0)});
+      },
+      "R"));
   MismatchOptions bad_gain;
   bad_gain.filter_gain = MatrixXd::Zero(1, 2);
-  ExpectErrorNaming([&] { StationaryMismatchedCovariance(design, design, bad_gain); }, "filter_gain");
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { StationaryMismatchedCovariance(design, design, bad_gain); }, "filter_gain"));
   const ModelStep other = RandomStep(rng, 3, 1, 0, 0.5);
-  ExpectErrorNaming([&] { StationaryMismatchedCovariance(design, other); }, "truth");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { StationaryMismatchedCovariance(design, other); }, "truth"));
   ErrorRanges neg;
   neg.A = -MatrixXd::Ones(2, 2);
-  ExpectErrorNaming([&] { ValidateErrorRanges(design, neg); }, "ranges.A");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateErrorRanges(design, neg); }, "ranges.A"));
   ErrorRanges asym;
   asym.Q = MatrixXd::Zero(2, 2);
   asym.Q(0, 1) = 0.1;
-  ExpectErrorNaming([&] { ValidateErrorRanges(design, asym); }, "ranges.Q");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ValidateErrorRanges(design, asym); }, "ranges.Q"));
   ErrorNorms plant;
   plant.A = 0.1;
-  ExpectErrorNaming([&] { Theorem3Bound(ComputeDesignTerms(design), plant); }, "norms");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Theorem3Bound(ComputeDesignTerms(design), plant); }, "norms"));
   ErrorNorms noise;
   noise.Q = 0.1;
-  ExpectErrorNaming([&] { Theorem6Bound(design, noise); }, "norms");
-  ExpectErrorNaming([&] { LemmaStateBound(design, -1.0); }, "dA_norm");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Theorem6Bound(design, noise); }, "norms"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { LemmaStateBound(design, -1.0); }, "dA_norm"));
   const Model dm(design, VectorXd::Zero(2), MatrixXd::Identity(2, 2));
-  ExpectErrorNaming([&] { MismatchedCovarianceSequence(dm, dm, -2); }, "steps");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { MismatchedCovarianceSequence(dm, dm, -2); }, "steps"));
   ErrorBoxSearchOptions so;
   so.step_tolerance = 2.0;
-  ExpectErrorNaming([&] { SearchErrorBox(design, ErrorRanges(), MismatchOptions(), so); }, "step_tolerance");
-  ExpectErrorNaming([&] { LoadErrorRanges("/nonexistent/ranges.json", design); }, "ranges.json");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SearchErrorBox(design, ErrorRanges(), MismatchOptions(), so); },
+                                         "step_tolerance"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { LoadErrorRanges("/nonexistent/ranges.json", design); }, "ranges.json"));
 }
 
 }  // namespace
