@@ -200,7 +200,8 @@ int RunAnalyze(const AnalyzeArgs& a) {
                     << ToString(st.method) << ")\n";
           j["stationary_mse"] = st.mse;
         } else {
-          std::cout << "  true stationary MSE of the steady-state filter on MODEL: none (" << st.summary.message << ")\n";
+          std::cout << "  true stationary MSE of the steady-state filter on MODEL: none (" << st.summary.message
+                    << ")\n";
         }
       }
     }
@@ -364,7 +365,8 @@ int RunMismatch(const MismatchArgs& a) {
   }
   if (b.lemma) {
     std::cout << "  Lemma: |U|_s <= " << b.lemma->beta << " (x = " << b.lemma->x << ", kappa = " << b.lemma->kappa
-              << ", sigma = " << b.lemma->sigma << ")" << (b.lemma->applies() ? "" : ": " + b.lemma->summary.message) << "\n";
+              << ", sigma = " << b.lemma->sigma << ")" << (b.lemma->applies() ? "" : ": " + b.lemma->summary.message)
+              << "\n";
     bounds["lemma"] = {{"beta", b.lemma->beta},
                        {"beta_printed", b.lemma->beta_printed},
                        {"x", b.lemma->x},

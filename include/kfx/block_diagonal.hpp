@@ -27,8 +27,8 @@
 #include "kfx/model.hpp"
 #include "kfx/progress.hpp"
 #include "kfx/simulation.hpp"
-#include "kfx/summary.hpp"
 #include "kfx/step_schedule.hpp"
+#include "kfx/summary.hpp"
 
 namespace kfx {
 
@@ -209,8 +209,9 @@ enum class CoupledFilterKind {
 const char* ToString(CoupledFilterKind kind);
 template <>
 struct EnumValues<CoupledFilterKind> {
-  static constexpr CoupledFilterKind kAll[] = {CoupledFilterKind::kBlockDiagonal, CoupledFilterKind::kBlockDiagonalNaive,
-                                               CoupledFilterKind::kBanded, CoupledFilterKind::kFull};
+  static constexpr CoupledFilterKind kAll[] = {CoupledFilterKind::kBlockDiagonal,
+                                               CoupledFilterKind::kBlockDiagonalNaive, CoupledFilterKind::kBanded,
+                                               CoupledFilterKind::kFull};
 };
 
 /// A running filter of one of the kinds above: x_k = F_k x_{k-1} + K_k (y_k - H_k F_k x_{k-1}).
@@ -255,7 +256,7 @@ struct CoupledRun {
 };
 struct CoupledFilterOptions {
   /// Number of steps T: RunCoupledFilter runs min(T, rows of y) (negative: all rows of y);
-  /// CoupledFilterAsLinearFilter needs T >= 0 (within the system's horizon).
+  /// CoupledFilterAsLinearFilter runs T (negative: the system's horizon).
   int steps = -1;
   ProgressCallback progress;
 };
@@ -293,8 +294,9 @@ struct SteadyStateOptions {
 struct BlockDiagonalSteadyState {
   Eigen::MatrixXd P_filt;  ///< c x (n c): P~_+
   BlockDiagonalGain gain;  ///< the limiting gain
-  /// kConverged (relative_change <= tolerance), kNotConverged (max_iterations), kFailed (diverged),
-  /// kLostDefiniteness (some H P H^T + R not positive definite); iterations, relative_change.
+  /// kConverged (relative_change <= tolerance), kNotConverged (max_iterations), kUnstable (the
+  /// covariance grows without bound: no steady state), kLostDefiniteness (some H P H^T + R not positive
+  /// definite); iterations, relative_change.
   Summary summary;
 };
 /// @throws kfx::Error on an invalid step or options. Numerical outcomes are in summary.

@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
+#include "kfx/enum_text.hpp"
 #include "kfx/filter_health.hpp"
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
-#include "kfx/enum_text.hpp"
 #include "kfx/progress.hpp"
 
 namespace kfx {

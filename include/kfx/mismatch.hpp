@@ -65,11 +65,11 @@ struct MismatchOptions {
 /// (SolveDiscreteLyapunov), V from the Sylvester equation V = A V (L A_M)^T + A U dC'^T
 /// - G Q G^T (L + K_M dC)^T (SLICOT SB04QD), P from the Lyapunov equation of (15).
 struct StationaryMismatch {
-  Eigen::MatrixXd filter_gain;  ///< K_M, n x m
-  Eigen::MatrixXd P;            ///< n x n, E[x~ x~^T]: the true error covariance of the filter
-  Eigen::MatrixXd V;            ///< n x n, E[x x~^T] (002's sign)
-  Eigen::MatrixXd U;            ///< n x n, E[x x^T]
-  double trace = 0.0;           ///< tr P, 002's performance index (14)
+  Eigen::MatrixXd filter_gain;          ///< K_M, n x m
+  Eigen::MatrixXd P;                    ///< n x n, E[x~ x~^T]: the true error covariance of the filter
+  Eigen::MatrixXd V;                    ///< n x n, E[x x~^T] (002's sign)
+  Eigen::MatrixXd U;                    ///< n x n, E[x x^T]
+  double trace = 0.0;                   ///< tr P, 002's performance index (14)
   double true_spectral_radius = 0.0;    ///< rho(A)
   double filter_spectral_radius = 0.0;  ///< rho(L A_M)
   /// kConverged: stationary P, V, U computed; relative_residual = the largest relative residual

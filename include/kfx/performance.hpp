@@ -64,8 +64,8 @@ struct StationaryPerformanceOptions {
 };
 
 struct StationaryPerformance {
-  StationaryMethod method = StationaryMethod::kJoint;  ///< the equation solved (when summary.ok())
-  Eigen::MatrixXd error_cov;  ///< stationary E[e e^T] (empty unless summary.ok())
+  StationaryMethod method = StationaryMethod::kJoint;             ///< the equation solved (when summary.ok())
+  Eigen::MatrixXd error_cov;                                      ///< stationary E[e e^T] (empty unless summary.ok())
   double mse = std::numeric_limits<double>::infinity();           ///< tr error_cov (inf when none)
   double weighted_mse = std::numeric_limits<double>::infinity();  ///< tr(W error_cov)
   /// kConverged; kUnstable when the error has no stationary value (the filter is unstable, or the true

@@ -205,7 +205,7 @@ struct SubspaceTwoStep {
   std::vector<Eigen::MatrixXd> mu;       ///< k = 1..T
   Eigen::VectorXd cost_da, cost_f;       ///< k = 0..T (entry 0: NaN)
   double triangularity_defect = 0.0;
-  Summary summary;                       ///< kConverged, iterations = T, seconds
+  Summary summary;  ///< kConverged, iterations = T, seconds
 };
 
 SubspaceTwoStep ComputeSubspaceTwoStep(const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r,

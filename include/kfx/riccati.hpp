@@ -51,11 +51,11 @@ struct DareOptions {
 };
 
 struct DareSolution {
-  Eigen::MatrixXd P_pred;          ///< n x n, a priori P_{k|k-1} (the DARE solution).
-  Eigen::MatrixXd P_filt;          ///< n x n, a posteriori P_{k|k} = P - K_f C P.
-  Eigen::MatrixXd filter_gain;     ///< n x m, K_f.
-  Eigen::MatrixXd predictor_gain;  ///< n x m, K_p = A K_f.
-  Eigen::MatrixXd innovation_cov;  ///< m x m, S = C P C^T + R.
+  Eigen::MatrixXd P_pred;                      ///< n x n, a priori P_{k|k-1} (the DARE solution).
+  Eigen::MatrixXd P_filt;                      ///< n x n, a posteriori P_{k|k} = P - K_f C P.
+  Eigen::MatrixXd filter_gain;                 ///< n x m, K_f.
+  Eigen::MatrixXd predictor_gain;              ///< n x m, K_p = A K_f.
+  Eigen::MatrixXd innovation_cov;              ///< m x m, S = C P C^T + R.
   DareMethod method_used = DareMethod::kAuto;  ///< kDoubling or kSchur: what produced the result.
   /// kAuto: doubling failed and Schur was tried (method_used says whose result is returned: Schur's
   /// if it succeeded or, when both failed, the one with the smaller residual).

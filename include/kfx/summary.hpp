@@ -33,11 +33,11 @@ enum class Termination {
 const char* ToString(Termination termination);
 template <>
 struct EnumValues<Termination> {
-  static constexpr Termination kAll[] = {
-      Termination::kConverged,         Termination::kNotConverged, Termination::kNotStabilizing,
-      Termination::kNotDetectable,     Termination::kNotStabilizable, Termination::kUnstable,
-      Termination::kSingular,          Termination::kLostDefiniteness, Termination::kUndecided,
-      Termination::kFailed};
+  static constexpr Termination kAll[] = {Termination::kConverged,       Termination::kNotConverged,
+                                         Termination::kNotStabilizing,  Termination::kNotDetectable,
+                                         Termination::kNotStabilizable, Termination::kUnstable,
+                                         Termination::kSingular,        Termination::kLostDefiniteness,
+                                         Termination::kUndecided,       Termination::kFailed};
 };
 
 struct Summary {

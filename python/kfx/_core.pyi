@@ -18,18 +18,18 @@ class ApproximateSubspaceFilter:
     Q_r: numpy.ndarray
     V_hat: numpy.ndarray
     gain: numpy.ndarray
+    summary: Summary
 
 class BlockDiagonalSteadyState:
     P_filt: numpy.ndarray
     gain: numpy.ndarray
-    summary: SteadyStateSummary
+    summary: Summary
 
 class CareSolution:
     P: numpy.ndarray
     closed_loop_max_real: float
-    message: str
-    ok: bool
-    relative_residual: float
+    refinement_steps: int
+    summary: Summary
 
 class ContinuousModel:
     """003: dz = A z dt + B du, dy = C z dt + dw, z(0) ~ N(m0, P0); Q, R the incremental covariances of u, w. B, Q may be None (no input noise)."""
@@ -98,26 +98,17 @@ class DareSolution:
     """Filter DARE solution. Gains: filter gain K_f = P C^T (C P C^T + R)^{-1} (x_{k|k} = x_{k|k-1} + K_f nu_k); predictor gain K_p = A K_f (x_{k+1|k} = A x_{k|k-1} + K_p nu_k)."""
     P_filt: numpy.ndarray
     P_pred: numpy.ndarray
-    filter_gain: numpy.ndarray
-    innovation_cov: numpy.ndarray
-    predictor_gain: numpy.ndarray
-    summary: DareSummary
-
-class DareSummary:
-    def brief_report(self: DareSummary) -> str: ...
     closed_loop_spectral_radius: float
     eigenvalues_exact: bool
     fell_back: bool
-    def full_report(self: DareSummary) -> str: ...
-    iterations: int
+    filter_gain: numpy.ndarray
+    innovation_cov: numpy.ndarray
     lyapunov_certified: bool
-    message: str
     method_used: str
     min_eigenvalue: float
-    ok: bool
+    predictor_gain: numpy.ndarray
     refinement_steps: int
-    relative_residual: float
-    status: str
+    summary: Summary
 
 class DiscretizationBounds:
     P_b: numpy.ndarray
@@ -126,6 +117,7 @@ class DiscretizationBounds:
     remark43: float
     rho_full: float
     rho_reduced: float
+    summary: Summary
     theorem41: float
     theorem41_exact_dP: float
     theorem42: float
@@ -167,11 +159,12 @@ class IdenticalAnalysis:
     banded_true: KroneckerStructured
     block_P: KroneckerStructured
     block_gain: KroneckerStructured
-    block_summary: SteadyStateSummary
+    block_summary: Summary
     block_true: KroneckerStructured
     full_P: KroneckerStructured
     full_gain: KroneckerStructured
     full_true: KroneckerStructured
+    summary: Summary
     uncoupled_P: KroneckerStructured
 
 class IdenticalSubsystems:
@@ -258,6 +251,11 @@ class LinearFilterStep:
     Phi: numpy.ndarray
     def __init__(self: LinearFilterStep, Phi: numpy.ndarray, K: numpy.ndarray, O: Optional[numpy.ndarray] = None) -> None: ...
 
+class LyapunovSolution:
+    X: numpy.ndarray
+    spectral_radius: float
+    summary: Summary
+
 class Model:
     """A validated discrete-time model x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k, x_0 ~ N(m0, P0); the first measurement is y_1. Time-invariant (one ModelStep) or time-varying (a list)."""
     P0: numpy.ndarray
@@ -301,6 +299,7 @@ class MonteCarloResult:
     mse: numpy.ndarray
     mse_std_error: numpy.ndarray
     runs: int
+    summary: Summary
     weighted_mse: numpy.ndarray
     weighted_mse_std_error: numpy.ndarray
 
@@ -308,6 +307,7 @@ class PerformanceResult:
     bias: numpy.ndarray
     error_moment: numpy.ndarray
     mse: numpy.ndarray
+    summary: Summary
     weighted_mse: numpy.ndarray
 
 class ReducedOrderOneStep:
@@ -315,12 +315,14 @@ class ReducedOrderOneStep:
     Qhat: numpy.ndarray
     cost: numpy.ndarray
     singular_steps: List[int]
+    summary: Summary
     xi1: numpy.ndarray
 
 class ReducedOrderTwoStep:
     cost_da: numpy.ndarray
     cost_f: numpy.ndarray
     singular_steps: List[int]
+    summary: Summary
     xi1: numpy.ndarray
 
 class SamplingBounds:
@@ -342,27 +344,16 @@ class StationaryMismatch:
     V: numpy.ndarray
     filter_gain: numpy.ndarray
     filter_spectral_radius: float
-    message: str
-    ok: bool
-    relative_residual: float
-    status: str
+    summary: Summary
     trace: float
     true_spectral_radius: float
 
 class StationaryPerformance:
     error_cov: numpy.ndarray
-    exists: bool
-    lyapunov_residual: float
-    message: str
     method: str
     mse: float
+    summary: Summary
     weighted_mse: float
-
-class SteadyStateSummary:
-    converged: bool
-    iterations: int
-    message: str
-    relative_change: float
 
 class Subspace:
     """000: inner product W (gram) and Pi (n x N), orthonormal in W."""
@@ -376,23 +367,40 @@ class SubspaceFilterSchedule:
     K: numpy.ndarray
     P_final: numpy.ndarray
     Q: numpy.ndarray
-    converged: bool
     converged_at: int
     gain: numpy.ndarray
     output_map: numpy.ndarray
     rde_max_relative_difference: float
     steps: int
+    summary: Summary
 
 class SubspaceOneStep:
     cost: numpy.ndarray
+    summary: Summary
     triangularity_defect: float
     xi1: numpy.ndarray
 
 class SubspaceTwoStep:
     cost_da: numpy.ndarray
     cost_f: numpy.ndarray
+    summary: Summary
     triangularity_defect: float
     xi1: numpy.ndarray
+
+class Summary:
+    """How a solver or long computation ended: the one outcome shape of kfx. Numerical outcomes (no convergence, a singular equation, lost definiteness, an unstable system) are reported here, never raised; invalid input raises kfx.Error."""
+    def brief_report(self: Summary) -> str: ...
+    computation: str
+    details: dict
+    def full_report(self: Summary) -> str: ...
+    iterations: int
+    message: str
+    method: str
+    ok: bool
+    relative_change: float
+    relative_residual: float
+    seconds: float
+    termination: str
 
 class UpdateResult:
     estimate: Estimate
@@ -476,7 +484,7 @@ def monte_carlo_performance(truth: Model, filter: LinearFilter, runs: int = 1000
 
 def paper_ids() -> List[str]: """The ids accepted by reproduce(), in paper order."""
 
-def patel_toda_bounds(design: ModelStep, ranges: ErrorRanges, filter_gain: Optional[numpy.ndarray] = None) -> dict: """002 Theorems 3-6 for the ranges (pi3, pi4: plant exact; pi5, pi6: noise exact; None where a theorem does not apply). pi5 uses the corrected Lemma bound, pi5_printed (41) as printed."""
+def patel_toda_bounds(design: ModelStep, ranges: ErrorRanges, filter_gain: Optional[numpy.ndarray] = None) -> dict: """002 Theorems 3-6 for the ranges (pi3, pi4: plant exact; pi5, pi6: noise exact; None where a theorem does not apply). pi5 uses the corrected Lemma bound, pi5_printed (41) as printed. 'summary': a kfx.Summary (when the design's DARE fails, every bound is None and the summary says why)."""
 
 def predict(estimate: Estimate, step: ModelStep, update_form: str = 'joseph') -> Estimate: """Time update x_{k|k-1} = A x, P_{k|k-1} = A P A^T + Q."""
 
@@ -518,11 +526,11 @@ def simulate_coupled(system: CoupledSystem, steps: int, seed: int = 1) -> tuple:
 
 def solve_block_diagonal_steady_state(step: CoupledStep, max_iterations: int = 100000, tolerance: float = 1e-13) -> BlockDiagonalSteadyState: ...
 
-def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray) -> numpy.ndarray: """X = A X A^T + Q (SLICOT SB03MD); the convention of scipy.linalg.solve_discrete_lyapunov."""
+def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray, method: str = 'auto') -> LyapunovSolution: """X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared Smith iteration when it converges, else 'schur'), 'schur' (SLICOT SB03MD) or 'smith'. Returns a LyapunovSolution; a singular equation is .summary.termination 'singular', never raised."""
 
 def solve_filter_care(model: ContinuousModel) -> CareSolution: """CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}."""
 
-def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.status, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead."""
+def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead."""
 
 def spectral_radius(A: numpy.ndarray) -> float: ...
 
@@ -546,7 +554,7 @@ def subspace_two_step(model: Model, T: numpy.ndarray, n_r: int, L: WeightSchedul
 
 def subspace_two_step_as_linear_filter(schedule: SubspaceTwoStep, T: numpy.ndarray, n_r: int, output: str = 'data_assimilation') -> LinearFilter: ...
 
-def theorem1_bound(design: ModelStep, errors: ModelingErrors) -> dict: """002 Theorem 1: tr P <= pi1 for known errors (26 corrected)."""
+def theorem1_bound(design: ModelStep, errors: ModelingErrors) -> dict: """002 Theorem 1: tr P <= pi1 for known errors (26 corrected); 'summary' says whether it exists."""
 
 def theorem2_bound(truth: ModelStep) -> float: """002 Theorem 2: tr P_F >= pi2 (optimal filter)."""
 

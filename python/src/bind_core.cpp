@@ -592,8 +592,8 @@ void BindCore(py::module_& m) {
       },
       py::arg("model"), py::arg("steps") = -1,
       "The Kalman filter of `model` as a LinearFilter: Phi_k = (I - K_k C_k) A_k, gain K_k, z_0 = m0.");
-  m.def("constant_gain_as_linear_filter", &ConstantGainAsLinearFilter, py::arg("design"), py::arg("filter_gain"), py::arg("z0"),
-        "Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain).");
+  m.def("constant_gain_as_linear_filter", &ConstantGainAsLinearFilter, py::arg("design"), py::arg("filter_gain"),
+        py::arg("z0"), "Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain).");
 
   py::class_<PerformanceResult>(m, "PerformanceResult")
       .def_readonly("mse", &PerformanceResult::mse, "tr E[e_k e_k^T], k = 0..T")

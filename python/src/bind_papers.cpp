@@ -415,8 +415,8 @@ void BindReducedOrder(py::module_& m) {
       },
       py::arg("model"), py::arg("L"), py::arg("steps") = -1, py::arg("rank_tolerance") = 1e-10,
       "001 Sec. II: the one-step reduced-order filter (offline part).");
-  m.def("reduced_order_one_step_as_linear_filter", &ReducedOrderOneStepAsLinearFilter, py::arg("schedule"), py::arg("L"),
-        "The one-step filter as a kfx.LinearFilter (output L_k^+ xi_k).");
+  m.def("reduced_order_one_step_as_linear_filter", &ReducedOrderOneStepAsLinearFilter, py::arg("schedule"),
+        py::arg("L"), "The one-step filter as a kfx.LinearFilter (output L_k^+ xi_k).");
   m.def(
       "reduced_order_two_step",
       [opts](const Model& model, const WeightSchedule& L, int steps, double tol) {
@@ -475,7 +475,8 @@ void BindReducedOrder(py::module_& m) {
              double tol) { return ComputeSubspaceOneStep(model, T, n_r, L, opts(steps, tol)); },
       py::arg("model"), py::arg("T"), py::arg("n_r"), py::arg("L"), py::arg("steps") = -1,
       py::arg("rank_tolerance") = 1e-10, "001 Sec. IV (4.10)-(4.13): the one-step subspace estimator.");
-  m.def("subspace_one_step_as_linear_filter", &SubspaceOneStepAsLinearFilter, py::arg("schedule"), py::arg("T"), py::arg("n_r"));
+  m.def("subspace_one_step_as_linear_filter", &SubspaceOneStepAsLinearFilter, py::arg("schedule"), py::arg("T"),
+        py::arg("n_r"));
   m.def(
       "subspace_two_step",
       [opts](const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r, const WeightSchedule& L, int steps,
@@ -552,8 +553,8 @@ void BindSubspaceFilter(py::module_& m) {
       "000 Algorithm 2.3 (offline part): gains K_k and output maps Q_k until convergence (or `steps`).");
   m.def("subspace_filter_as_linear_filter", &SubspaceFilterAsLinearFilter, py::arg("truth"), py::arg("subspace"),
         py::arg("schedule"), py::arg("m0"), "The time-varying subspace filter (z_0 = Pi m0) for exact_performance.");
-  m.def("converged_subspace_filter_as_linear_filter", &ConvergedSubspaceFilterAsLinearFilter, py::arg("truth"), py::arg("subspace"),
-        py::arg("schedule"), py::arg("m0"));
+  m.def("converged_subspace_filter_as_linear_filter", &ConvergedSubspaceFilterAsLinearFilter, py::arg("truth"),
+        py::arg("subspace"), py::arg("schedule"), py::arg("m0"));
   py::class_<ApproximateSubspaceFilter>(m, "ApproximateSubspaceFilter")
       .def_readonly("Q_hat", &ApproximateSubspaceFilter::Q_hat)
       .def_readonly("V_hat", &ApproximateSubspaceFilter::V_hat)

@@ -227,8 +227,8 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
     Symmetrize(N);
     sol = SolveDiscreteLyapunov(AA, N, lyapunov);
     if (sol.summary.ok()) {
-      out.error_cov = ErrorMoment(sol.X.topLeftCorner(n, n), sol.X.topRightCorner(n, nz),
-                                  sol.X.bottomRightCorner(nz, nz), f->O);
+      out.error_cov =
+          ErrorMoment(sol.X.topLeftCorner(n, n), sol.X.topRightCorner(n, nz), sol.X.bottomRightCorner(nz, nz), f->O);
     }
     out.method = StationaryMethod::kJoint;
     sum.method = "joint Lyapunov equation";

@@ -87,9 +87,11 @@ Curves RunChain(const Model& model, const MatrixXd& Ad, Index ne, bool reduced, 
     tick();
     const ReducedOrderTwoStep s2 = ComputeReducedOrderTwoStep(model, L, ro);
     c.reduced_da = PaperRatio(
-        WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s2, L, TwoStepOutput::kDataAssimilation), L, ro), kf.filter, 1);
-    c.reduced_f = PaperRatio(WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s2, L, TwoStepOutput::kForecast), L, ro),
-                             kf.predictor, 2);
+        WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s2, L, TwoStepOutput::kDataAssimilation), L, ro),
+        kf.filter, 1);
+    c.reduced_f =
+        PaperRatio(WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s2, L, TwoStepOutput::kForecast), L, ro),
+                   kf.predictor, 2);
     tick();
   }
   // Sec. IV partitions L = [L_r, L_s] conformally with x' = (x_r, x_s): for the subspace estimator
@@ -107,9 +109,11 @@ Curves RunChain(const Model& model, const MatrixXd& Ad, Index ne, bool reduced, 
   tick();
   const SubspaceTwoStep u2 = ComputeSubspaceTwoStep(model, b.T, ne, Ls, ro);
   c.subspace_da = PaperRatio(
-      WeightedCost(model, SubspaceTwoStepAsLinearFilter(u2, b.T, ne, TwoStepOutput::kDataAssimilation), Ls, ro), kfs.filter, 1);
-  c.subspace_f = PaperRatio(WeightedCost(model, SubspaceTwoStepAsLinearFilter(u2, b.T, ne, TwoStepOutput::kForecast), Ls, ro),
-                            kfs.predictor, 2);
+      WeightedCost(model, SubspaceTwoStepAsLinearFilter(u2, b.T, ne, TwoStepOutput::kDataAssimilation), Ls, ro),
+      kfs.filter, 1);
+  c.subspace_f =
+      PaperRatio(WeightedCost(model, SubspaceTwoStepAsLinearFilter(u2, b.T, ne, TwoStepOutput::kForecast), Ls, ro),
+                 kfs.predictor, 2);
   tick();
   return c;
 }

@@ -135,8 +135,8 @@ StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, doub
       const double rho_sq = std::max(0.0, 1.0 - s / x_max);
       cert.spectral_radius_bound = std::min(1.0, std::sqrt(rho_sq + 4 * u) * (1 + 2 * u));
       cert.min_eigenvalue_bound = s;
-      proven = "rho(F) <= " + FormatNumber(cert.spectral_radius_bound, 6) + " and lambda_min(X) >= " +
-               FormatNumber(s) + " proven";
+      proven = "rho(F) <= " + FormatNumber(cert.spectral_radius_bound, 6) + " and lambda_min(X) >= " + FormatNumber(s) +
+               " proven";
       break;
     }
   }

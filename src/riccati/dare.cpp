@@ -149,8 +149,8 @@ int Refine(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstR
   return accepted;
 }
 
-DareSolution Finalize(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R,
-                      DareCandidate cand, const DareOptions& options) {
+DareSolution Finalize(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, DareCandidate cand,
+                      const DareOptions& options) {
   DareSolution sol;
   Summary& sum = sol.summary;
   sol.method_used = cand.method;
@@ -253,10 +253,9 @@ void Describe(DareSolution* sol) {
   s.SetDetail("fell back to Schur", sol->fell_back ? "yes" : "no");
   s.SetDetail("refinement steps", std::to_string(sol->refinement_steps));
   const std::string bound = sol->eigenvalues_exact ? "" : " (Lyapunov bound)";
-  s.SetDetail("rho(A - K_p C)", (sol->eigenvalues_exact ? "" : "<= ") +
-                                    FormatNumber(sol->closed_loop_spectral_radius, 10) + bound);
-  s.SetDetail("min eigenvalue of P",
-              (sol->eigenvalues_exact ? "" : ">= ") + FormatNumber(sol->min_eigenvalue) + bound);
+  s.SetDetail("rho(A - K_p C)",
+              (sol->eigenvalues_exact ? "" : "<= ") + FormatNumber(sol->closed_loop_spectral_radius, 10) + bound);
+  s.SetDetail("min eigenvalue of P", (sol->eigenvalues_exact ? "" : ">= ") + FormatNumber(sol->min_eigenvalue) + bound);
   s.SetDetail("stability proven by", sol->lyapunov_certified ? "Lyapunov certificate" : "eigenvalues (DGEEV)");
 }
 
@@ -339,8 +338,8 @@ DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const E
       DareSolution schur = detail::Finalize(A, C, Q, R, detail::SolveBySchur(A, C, Q, R), options);
       // Keep Schur if it succeeded, or if both failed and Schur has the smaller residual.
       const bool take_schur =
-          schur.summary.ok() ||
-          (detail::Usable(schur) && (!detail::Usable(sol) || schur.summary.relative_residual < sol.summary.relative_residual));
+          schur.summary.ok() || (detail::Usable(schur) && (!detail::Usable(sol) || schur.summary.relative_residual <
+                                                                                       sol.summary.relative_residual));
       if (take_schur) {
         schur.summary.message = "doubling: " + doubling_message + "; fell back to Schur: " + schur.summary.message;
         sol = std::move(schur);

@@ -50,7 +50,7 @@ constexpr double kDivergenceGrowth = 1e100;
 // The increment D is formed explicitly, so the stopping test |D|_F <= tol |H_{k+1}|_F has no
 // cancellation floor.
 DareCandidate SolveDareByDoubling(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R,
-                          const DareOptions& options) {
+                                  const DareOptions& options) {
   DareCandidate out;
   out.method = DareMethod::kDoubling;
   const Index n = A.rows();

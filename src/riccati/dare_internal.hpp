@@ -11,8 +11,8 @@ namespace kfx::detail {
 
 /// What a method hands to Finalize (dare.cpp).
 struct DareCandidate {
-  Eigen::MatrixXd P;                                   ///< empty if the method produced nothing usable.
-  Termination termination = Termination::kFailed;      ///< kConverged if the method itself succeeded.
+  Eigen::MatrixXd P;                               ///< empty if the method produced nothing usable.
+  Termination termination = Termination::kFailed;  ///< kConverged if the method itself succeeded.
   std::string message;
   DareMethod method = DareMethod::kDoubling;
   int iterations = 0;

@@ -16,10 +16,10 @@ namespace kfx {
 
 namespace {
 
-using Eigen::Index;
-using Eigen::MatrixXd;
 using detail::ConstRef;
 using detail::kTiny;
+using Eigen::Index;
+using Eigen::MatrixXd;
 
 // The squared Smith iteration (Smith 1968):
 //   X_0 = Q, A_0 = A;  X_{j+1} = X_j + A_j X_j A_j^T,  A_{j+1} = A_j^2,  so X_j = sum_{k < 2^j} A^k Q A^kT,
@@ -86,8 +86,8 @@ void SolveBySchur(const ConstRef& A, const ConstRef& Q, LyapunovSolution* sol) {
   sum.method = "schur";
   detail::Sb03mdResult sb = detail::SolveLyapunovSb03md(detail::TimeDomain::kDiscrete, A, Q);
   const int info = sb.info;
-  sol->spectral_radius = sb.eigenvalues.size() > 0 ? sb.eigenvalues.cwiseAbs().maxCoeff()
-                                                   : detail::SpectralRadiusUnchecked(A);
+  sol->spectral_radius =
+      sb.eigenvalues.size() > 0 ? sb.eigenvalues.cwiseAbs().maxCoeff() : detail::SpectralRadiusUnchecked(A);
   const std::string rho = " (spectral radius " + FormatNumber(sol->spectral_radius, 17) + ")";
   if (info > 0 && info <= n) {
     sum.termination = Termination::kFailed;

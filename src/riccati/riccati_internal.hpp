@@ -29,8 +29,7 @@ void SymmetrizeInPlace(Eigen::MatrixXd& m);
 /// flops instead of two GEMMs' 4 n^3: with S = L + L^T (L the lower triangle of S, diagonal halved)
 /// and B = A L (DTRMM, n^3), A S A^T = B A^T + A B^T (DSYR2K, 2 n^3, lower triangle; mirrored).
 /// The same device as the Kalman filter's covariance step (src/filter). Below n = 32, Eigen's products.
-void UpdateWithCongruence(const ConstRef& A, const Eigen::MatrixXd& S, double alpha, double beta,
-                          Eigen::MatrixXd* out);
+void UpdateWithCongruence(const ConstRef& A, const Eigen::MatrixXd& S, double alpha, double beta, Eigen::MatrixXd* out);
 
 /// Eigenvalues of a general real matrix by LAPACK DGEEV (eigenvalues only). About 4x faster than
 /// Eigen::EigenSolver at n = 400 (blocked Hessenberg reduction). Returns false if QR failed.

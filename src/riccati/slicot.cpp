@@ -114,8 +114,8 @@ Sb03mdResult SolveLyapunovSb03md(TimeDomain domain, const ConstRef& A, const Con
   int info = 0;
   const int ld = std::max(1, nf);
   const char* dico = domain == TimeDomain::kDiscrete ? "D" : "C";
-  sb03md_(dico, "X", "N", "T", &nf, a.data(), &ld, u.data(), &ld, out.X.data(), &ld, &out.scale, &sep, &ferr,
-          wr.data(), wi.data(), iwork.data(), dwork.data(), &ldwork, &info, 1, 1, 1, 1);
+  sb03md_(dico, "X", "N", "T", &nf, a.data(), &ld, u.data(), &ld, out.X.data(), &ld, &out.scale, &sep, &ferr, wr.data(),
+          wi.data(), iwork.data(), dwork.data(), &ldwork, &info, 1, 1, 1, 1);
   KFX_ASSERT(info >= 0);  // a negative info is an argument error: a bug here
   out.info = info;
   if (info == 0 || info == nf + 1) {

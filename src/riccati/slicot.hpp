@@ -33,8 +33,8 @@ struct Sb03mdResult {
   /// 0 success; 1..n the QR algorithm failed; n + 1: an eigenvalue pair with lambda_i lambda_j ~= 1
   /// (discrete) or lambda_i + lambda_j ~= 0 (continuous), solved with perturbed values.
   int info = 0;
-  Eigen::MatrixXd X;            ///< n x n (divided by scale when info == 0 and scale > 0)
-  double scale = 1.0;           ///< SB03MD's scale (0: the solution overflows)
+  Eigen::MatrixXd X;             ///< n x n (divided by scale when info == 0 and scale > 0)
+  double scale = 1.0;            ///< SB03MD's scale (0: the solution overflows)
   Eigen::VectorXcd eigenvalues;  ///< of A, from the Schur form (when info is 0 or n + 1; else empty)
 };
 Sb03mdResult SolveLyapunovSb03md(TimeDomain domain, const ConstRef& A, const ConstRef& Q);

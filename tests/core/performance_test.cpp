@@ -28,7 +28,7 @@ TEST(ExactPerformance, KalmanFilterOnItsOwnModelReturnsItsCovariance) {
     steps.push_back(MakeStep(rng.WithSpectralRadius(n, 1.05), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m)));
   }
   Model model(steps, rng.Gaussian(n, 1), rng.Spd(n));
-  const KalmanSchedule sch = ComputeKalmanSchedule(model, 30);
+  const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{30});
   const PerformanceResult perf = ExactPerformance(model, KalmanAsLinearFilter(model, sch));
   ASSERT_EQ(perf.error_moment.size(), 31u);
   for (int k = 0; k <= 30; ++k) {
@@ -74,7 +74,7 @@ TEST(ExactPerformance, MismatchedFilterAgreesWithMonteCarlo) {
   Model truth(truth_step, m0, rng.Spd(n));
   Model designed(design, VectorXd::Zero(n), MatrixXd::Identity(n, n));  // wrong prior too (biased)
   const int T = 25;
-  const LinearFilter f = KalmanAsLinearFilter(designed, ComputeKalmanSchedule(designed, T));
+  const LinearFilter f = KalmanAsLinearFilter(designed, ComputeKalmanSchedule(designed, KalmanScheduleOptions{T}));
   PerformanceOptions po;
   po.weight = rng.Spd(n);
   const PerformanceResult exact = ExactPerformance(truth, f, po);
@@ -95,9 +95,10 @@ TEST(ExactPerformance, MismatchedFilterAgreesWithMonteCarlo) {
   // About 5% of 26 steps may fall outside the 95% interval (they are correlated in k); many more would be a bug.
   EXPECT_LE(outside, 8);
   // The designed filter's own covariance is not its true error (the engine is needed at all).
-  EXPECT_GT(std::abs(exact.mse(T) - ComputeKalmanSchedule(designed, T).P_filt.back().trace()), 0.05 * exact.mse(T));
+  EXPECT_GT(std::abs(exact.mse(T) - ComputeKalmanSchedule(designed, KalmanScheduleOptions{T}).P_filt.back().trace()),
+            0.05 * exact.mse(T));
   // The mismatched filter is worse than the Kalman filter on the true model.
-  EXPECT_GT(exact.mse(T), ComputeKalmanSchedule(truth, T).P_filt.back().trace());
+  EXPECT_GT(exact.mse(T), ComputeKalmanSchedule(truth, KalmanScheduleOptions{T}).P_filt.back().trace());
 }
 
 TEST(ExactPerformance, StationaryJointMatchesLongHorizonAndReducedOutputMap) {
@@ -114,7 +115,8 @@ TEST(ExactPerformance, StationaryJointMatchesLongHorizonAndReducedOutputMap) {
   po.steps = 400;
   const PerformanceResult pr = ExactPerformance(truth, f, po);
   EXPECT_LT(kfx::testing::RelativeDifference(pr.error_moment.back(), st.error_cov), 1e-10);
-  EXPECT_LT(st.lyapunov_residual, 1e-12);
+  ASSERT_TRUE(st.summary.ok()) << st.summary.FullReport();
+  EXPECT_LT(st.summary.relative_residual, 1e-12);
 }
 
 TEST(ExactPerformance, StationaryErrorCoordinatesForUnstableTruthAndConsistentFilter) {
@@ -138,8 +140,9 @@ TEST(ExactPerformance, StationaryErrorCoordinatesForUnstableTruthAndConsistentFi
   wrong.A(0, 1) = 0.9;
   const StationaryPerformance none =
       ExactStationaryPerformance(truth, ConstantGainAsLinearFilter(wrong, dare.filter_gain, VectorXd::Zero(2)));
-  EXPECT_EQ(none.method, StationaryMethod::kNone);
-  EXPECT_FALSE(none.exists());
+  EXPECT_EQ(none.summary.termination, Termination::kUnstable);
+  EXPECT_FALSE(none.summary.ok());
+  EXPECT_NE(none.summary.message.find("not consistent"), std::string::npos) << none.summary.message;
   EXPECT_TRUE(std::isinf(none.mse));
 }
 
@@ -176,7 +179,8 @@ TEST(RunLinearFilter, KalmanAsLinearFilterReproducesTheOnlineFilter) {
               rng.Spd(n));
   TimeSeries y(12, m);
   for (int k = 0; k < 12; ++k) y.row(k) = rng.Gaussian(1, m);
-  const TimeSeries est = RunLinearFilter(KalmanAsLinearFilter(model, ComputeKalmanSchedule(model, 12)), y);
+  const TimeSeries est =
+      RunLinearFilter(KalmanAsLinearFilter(model, ComputeKalmanSchedule(model, KalmanScheduleOptions{12})), y);
   const FilterRun run = RunFilter(model, y);
   EXPECT_MATRICES_NEAR(MatrixXd(est), MatrixXd(run.x_filt), 1e-12);
 }

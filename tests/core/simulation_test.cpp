@@ -51,11 +51,11 @@ TEST(Simulate, ReproducibleShapesAndCovariance) {
   MatrixXd A = rng.WithSpectralRadius(n, 0.9), C = rng.Gaussian(m, n), Q = rng.Spd(n), R = rng.Spd(m), P0 = rng.Spd(n);
   VectorXd m0 = rng.Gaussian(n, 1);
   Model model(MakeStep(A, C, Q, R), m0, P0);
-  const Trajectory t1 = Simulate(model, 10, 5), t2 = Simulate(model, 10, 5);
+  const Trajectory t1 = Simulate(model, {10, 5}), t2 = Simulate(model, {10, 5});
   EXPECT_EQ(t1.x.rows(), 11);
   EXPECT_EQ(t1.y.rows(), 10);
   EXPECT_MATRICES_NEAR(MatrixXd(t1.x), MatrixXd(t2.x), 0.0);
-  const auto batch = SimulateBatch(model, 2, 20000, 11);
+  const auto batch = SimulateBatch(model, 20000, {2, 11});
   // Sample mean and covariance of x_1 and y_1 against m1 = A m0, P1 = A P0 A^T + Q, C P1 C^T + R.
   const VectorXd m1 = A * m0;
   const MatrixXd P1 = A * P0 * A.transpose() + Q;
@@ -79,8 +79,8 @@ TEST(Simulate, ReproducibleShapesAndCovariance) {
   const MatrixXd S = C * P1 * C.transpose() + R;
   for (Eigen::Index i = 0; i < m; ++i)
     EXPECT_LT(std::abs(ycov(i, i) - S(i, i)), 4.5 * std::sqrt(2 * S(i, i) * S(i, i) / N));
-  EXPECT_THROW(SimulateBatch(model, 2, -1, 1), Error);
-  EXPECT_THROW(Simulate(model, -1, 1), Error);  // no horizon
+  EXPECT_THROW(SimulateBatch(model, -1, {2, 1}), Error);
+  EXPECT_THROW(Simulate(model, {-1, 1}), Error);  // no horizon
 }
 
 TEST(Simulate, NoiseInputDrawsInItsOwnDimension) {
@@ -89,7 +89,7 @@ TEST(Simulate, NoiseInputDrawsInItsOwnDimension) {
   B << 1, -2, 0.5;
   Model model(MakeStepWithNoiseInput(A, B, MatrixXd::Identity(1, 1), MatrixXd::Ones(1, 3), MatrixXd::Identity(1, 1)),
               VectorXd::Zero(3), MatrixXd::Zero(3, 3));
-  const Trajectory t = Simulate(model, 5, 1);
+  const Trajectory t = Simulate(model, {5, 1});
   for (int k = 1; k <= 5; ++k) {
     const VectorXd w = t.x.row(k).transpose() - A * t.x.row(k - 1).transpose();
     const VectorXd b = B.col(0);

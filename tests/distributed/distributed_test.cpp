@@ -113,7 +113,7 @@ TEST_P(Partitioned, BlockDiagonalIndependentOfPartitionAndEqualToSerial) {
   TestRng rng(300 + cf.n + cf.c * 7 + cf.r);
   const int T = 8;
   const CoupledSystem sys = RandomSystem(rng, cf.n, cf.c, cf.d, cf.r, T);
-  const TimeSeries y = SimulateCoupled(sys, T, 4).y;
+  const TimeSeries y = SimulateCoupled(sys, {T, 4}).y;
   const CoupledRun serial = RunCoupledFilter(sys, CoupledFilterKind::kBlockDiagonal, y);
   const SlicedRun one = RunCoupledFilterPartitioned(sys, CoupledFilterKind::kBlockDiagonal,
                                                     PartitionByCost(cf.n, 1, cf.granule), cf.granule, y)[0];
@@ -141,7 +141,7 @@ TEST_P(Partitioned, BandedEqualToSerial) {
   const Config cf = GetParam();
   TestRng rng(400 + cf.n);
   const CoupledSystem sys = RandomSystem(rng, cf.n, cf.c, cf.d, cf.r, 5);
-  const TimeSeries y = SimulateCoupled(sys, 5, 8).y;
+  const TimeSeries y = SimulateCoupled(sys, {5, 8}).y;
   const CoupledRun serial = RunCoupledFilter(sys, CoupledFilterKind::kBanded, y);
   const Partition part = PartitionByCost(cf.n, 3, cf.granule);
   const auto runs = RunCoupledFilterPartitioned(sys, CoupledFilterKind::kBanded, part, cf.granule, y);
@@ -176,7 +176,7 @@ TEST(DistributedMonteCarlo, SplitSumsEqualMonteCarloPerformance) {
   TestRng rng(9);
   const CoupledSystem sys = RandomSystem(rng, 5, 2, 1, 2, 6);
   const Model truth = ToDenseModel(sys);
-  const LinearFilter filter = CoupledFilterAsLinearFilter(sys, CoupledFilterKind::kBlockDiagonal, 6);
+  const LinearFilter filter = CoupledFilterAsLinearFilter(sys, CoupledFilterKind::kBlockDiagonal, {6});
   MonteCarloOptions opt;
   opt.runs = 23;
   opt.seed = 11;
@@ -325,7 +325,7 @@ TEST(BlockDiagJob, SlicedOutputOnThreeRanksEqualsOneRankAndTheSerialFilter) {
   for (Index i = 0; i < n; ++i) P0.middleCols(i * c, c) = rng.Spd(c, 0.5);
   const CoupledSystem sys(RandomStep(rng, n, c, d, r), VectorXd::Zero(n * c), P0);
   SaveCoupledModel(dir + "/m.json", sys);
-  const TimeSeries y = SimulateCoupled(sys, 7, 2).y;
+  const TimeSeries y = SimulateCoupled(sys, {7, 2}).y;
   WriteNpyMatrix(dir + "/y.npy", y);
   BlockDiagJob job;
   job.model = dir + "/m.json";

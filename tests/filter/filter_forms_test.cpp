@@ -56,7 +56,7 @@ Model RandomModel(unsigned seed) {
 
 TEST(RobustFilter, FactoredFormsEqualConventionalOnWellConditionedProblem) {
   const Model model = RandomModel(11);
-  TimeSeries y = Simulate(model, 60, 5).y;
+  TimeSeries y = Simulate(model, {60, 5}).y;
   y(3, 1) = kNaN;                      // partly missing
   y(7, 0) = y(7, 1) = y(7, 2) = kNaN;  // all missing: pure prediction
   const FilterRun ref = RunFilter(model, y, RunOptions(kJoseph));
@@ -108,12 +108,12 @@ TEST(RobustFilter, OneStepFunctionsAndClassAcceptEveryForm) {
 TEST(RobustFilter, SchedulesGiveTheKalmanFilterToTheExactPerformanceEngine) {
   const Model model = RandomModel(31);
   const int T = 25;
-  const KalmanSchedule ref = ComputeKalmanSchedule(model, T);
+  const KalmanSchedule ref = ComputeKalmanSchedule(model, KalmanScheduleOptions{T});
   for (const NamedForm& f : kFactored) {
     SCOPED_TRACE(f.name);
     KalmanFilterOptions o;
     o.form = f.form;
-    const KalmanSchedule sch = ComputeKalmanSchedule(model, T, o);
+    const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{T, o});
     for (int k = 1; k <= T; ++k) EXPECT_MATRICES_NEAR(sch.filter_gain[k], ref.filter_gain[k], 1e-11);
     const PerformanceResult perf = ExactPerformance(model, KalmanAsLinearFilter(model, sch));
     for (int k = 0; k <= T; ++k) EXPECT_NEAR(perf.mse(k), sch.P_filt[k].trace(), 1e-10 * sch.P_filt[k].trace());
@@ -270,7 +270,7 @@ TEST(RobustFilter, IllConditionedCasesStayPositiveDefiniteAndAccurate) {
 
 TEST(FilterHealth, NisOfDataFromTheModelIsConsistentAndOfAWrongModelIsNot) {
   const Model model = RandomModel(41);
-  const TimeSeries y = Simulate(model, 2000, 9).y;
+  const TimeSeries y = Simulate(model, {2000, 9}).y;
   FilterRunOptions o;
   o.monitor_health = true;
   o.store_covariances = false;
@@ -300,7 +300,7 @@ TEST(FilterHealth, NisOfDataFromTheModelIsConsistentAndOfAWrongModelIsNot) {
 
 TEST(FilterHealth, AsymmetryIsReportedWhenTheFilterDoesNotSymmetrize) {
   const Model model = RandomModel(51);
-  const TimeSeries y = Simulate(model, 50, 3).y;
+  const TimeSeries y = Simulate(model, {50, 3}).y;
   FilterRunOptions o;
   o.monitor_health = true;
   EXPECT_EQ(RunFilter(model, y, o).health.max_asymmetry, 0.0);
@@ -313,7 +313,7 @@ TEST(FilterHealth, AsymmetryIsReportedWhenTheFilterDoesNotSymmetrize) {
 
 TEST(FilterHealth, NotMonitoredByDefault) {
   const Model model = RandomModel(61);
-  const FilterRun run = RunFilter(model, Simulate(model, 5, 1).y);
+  const FilterRun run = RunFilter(model, Simulate(model, {5, 1}).y);
   EXPECT_FALSE(run.health.monitored);
   EXPECT_EQ(run.health.steps, 0);
 }

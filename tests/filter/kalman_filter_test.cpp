@@ -55,7 +55,7 @@ TEST(KalmanFilter, ScalarRandomWalkMatchesClosedFormRecursion) {
 TEST(KalmanFilter, ScalarRandomWalkConvergesToClosedFormSteadyState) {
   const double q = 0.3, r = 2.0;
   Model model(MakeStep(Scalar(1), Scalar(1), Scalar(q), Scalar(r)), VectorXd::Zero(1), Scalar(100.0));
-  const KalmanSchedule sch = ComputeKalmanSchedule(model, 200);
+  const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{200});
   const double p_pred = (q + std::sqrt(q * q + 4 * q * r)) / 2;  // root of P^2 - q P - q r = 0
   EXPECT_NEAR(sch.P_pred.back()(0, 0), p_pred, 1e-13);
   EXPECT_NEAR(sch.filter_gain.back()(0, 0), p_pred / (p_pred + r), 1e-13);
@@ -79,7 +79,7 @@ TEST(KalmanFilter, DoubleIntegratorSteadyStateGainMatchesAlphaBetaClosedForm) {
       ASSERT_TRUE(dare.summary.ok()) << dare.summary.FullReport();
       EXPECT_MATRICES_NEAR(dare.filter_gain, expected, 1e-10);
       Model model(s, VectorXd::Zero(2), 10.0 * MatrixXd::Identity(2, 2));
-      const KalmanSchedule sch = ComputeKalmanSchedule(model, 3000);
+      const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{3000});
       EXPECT_MATRICES_NEAR(sch.filter_gain.back(), expected, 1e-9) << "T = " << T << ", lambda = " << l;
     }
   }
@@ -91,7 +91,7 @@ TEST(KalmanFilter, RiccatiRecursionConvergesToDare) {
     const Eigen::Index m = std::max<Eigen::Index>(1, n / 2);
     const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.1), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
     Model model(s, VectorXd::Zero(n), MatrixXd::Identity(n, n));
-    const KalmanSchedule sch = ComputeKalmanSchedule(model, 400);
+    const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{400});
     const DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
     ASSERT_TRUE(dare.summary.ok()) << dare.summary.FullReport();
     const double scale = dare.P_pred.norm();
@@ -108,8 +108,8 @@ TEST(KalmanFilter, JosephAndStandardFormsAgreeOnWellConditionedProblem) {
   Model model(s, VectorXd::Zero(n), MatrixXd::Identity(n, n));
   KalmanFilterOptions standard;
   standard.update_form = CovarianceUpdateForm::kStandard;
-  const KalmanSchedule a = ComputeKalmanSchedule(model, 50);
-  const KalmanSchedule b = ComputeKalmanSchedule(model, 50, standard);
+  const KalmanSchedule a = ComputeKalmanSchedule(model, KalmanScheduleOptions{50});
+  const KalmanSchedule b = ComputeKalmanSchedule(model, KalmanScheduleOptions{50, standard});
   for (int k = 0; k <= 50; ++k)
     EXPECT_MATRICES_NEAR(a.P_filt[static_cast<size_t>(k)], b.P_filt[static_cast<size_t>(k)], 1e-12);
 }
@@ -119,7 +119,7 @@ TEST(KalmanFilter, ClassMatchesFunctionsAndRun) {
   const Eigen::Index n = 4, m = 2;
   const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
   Model model(s, rng.Gaussian(n, 1), MatrixXd::Identity(n, n));
-  const Trajectory tr = Simulate(model, 20, 5);
+  const Trajectory tr = Simulate(model, {20, 5});
   const FilterRun run = RunFilter(model, tr.y);
   KalmanFilter kf(model);
   EXPECT_THROW(kf.Update(tr.y.row(0).transpose()), Error);  // Update before Predict
@@ -233,7 +233,7 @@ TEST(KalmanFilter, SteadyStateFastPathMatchesFullRecursion) {
   const Eigen::Index n = 5, m = 2;
   const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
   Model model(s, rng.Gaussian(n, 1), MatrixXd::Identity(n, n));
-  TimeSeries y = Simulate(model, 300, 4).y;
+  TimeSeries y = Simulate(model, {300, 4}).y;
   y(200, 1) = kNaN;
   const FilterRun full = RunFilter(model, y);
   FilterRunOptions fast_options;
@@ -300,7 +300,7 @@ TEST(KalmanFilter, LogLikelihoodEqualsStackedGaussianDensityWithMissingData) {
   const VectorXd m0 = rng.Gaussian(n, 1);
   const MatrixXd P0 = rng.Spd(n);
   Model model(s, m0, P0);
-  TimeSeries y = Simulate(model, 8, 99).y;
+  TimeSeries y = Simulate(model, {8, 99}).y;
   EXPECT_NEAR(RunFilter(model, y).log_likelihood, BatchLogLikelihood(s, m0, P0, y), 1e-10);
   y(2, 0) = kNaN;            // one entry missing
   y(4, 0) = y(4, 1) = kNaN;  // a whole step missing
@@ -346,7 +346,7 @@ TEST(RtsSmoother, MatchesBatchInformationFormSolution) {
   const VectorXd m0 = rng.Gaussian(n, 1);
   const MatrixXd P0 = rng.Spd(n);
   Model model(s, m0, P0);
-  TimeSeries y = Simulate(model, T, 17).y;
+  TimeSeries y = Simulate(model, {T, 17}).y;
   y(3, 0) = kNaN;
   const Eigen::Index N = n * (T + 1);
   MatrixXd J = MatrixXd::Zero(N, N);

@@ -90,7 +90,7 @@ void CheckFilter(MPI_Comm raw, const std::string& label, Index n, Index c, Index
   kfx::mpi::Communicator comm(raw);
   const int T = 10;
   const CoupledSystem system = RandomSystem(1000 + n + 10 * c + 100 * d + r, n, c, d, r, T);
-  const kfx::TimeSeries y = kfx::SimulateCoupled(system, T, 77).y;
+  const kfx::TimeSeries y = kfx::SimulateCoupled(system, {T, 77}).y;
   VectorXd cost;
   if (cost_weighted) cost = VectorXd::LinSpaced(n, 1.0, 5.0);  // e.g. subsystems of growing size
   const kfx::Partition part = kfx::PartitionByCost(n, comm.size(), granule, cost);
@@ -119,7 +119,7 @@ void CheckMonteCarlo(MPI_Comm raw) {
   kfx::mpi::Communicator comm(raw);
   const CoupledSystem system = RandomSystem(5, 6, 2, 1, 2, 8);
   const kfx::Model truth = kfx::ToDenseModel(system);
-  const kfx::LinearFilter filter = kfx::CoupledFilterAsLinearFilter(system, CoupledFilterKind::kBlockDiagonal, 8);
+  const kfx::LinearFilter filter = kfx::CoupledFilterAsLinearFilter(system, CoupledFilterKind::kBlockDiagonal, {8});
   kfx::MonteCarloOptions opt;
   opt.runs = 37;
   opt.seed = 3;
@@ -146,7 +146,7 @@ void CheckFailureAgreement(MPI_Comm raw) {
   kfx::mpi::Communicator comm(raw);
   const Index n = 16, c = 2, d = 1, r = 3, granule = 4;
   const CoupledSystem system = RandomSystem(9, n, c, d, r, 3);
-  kfx::TimeSeries y = kfx::SimulateCoupled(system, 3, 1).y;
+  kfx::TimeSeries y = kfx::SimulateCoupled(system, {3, 1}).y;
   y(1, n * d - 1) = NAN;  // in the last rank's slice
   const kfx::Partition part = kfx::PartitionByCost(n, comm.size(), granule);
   const Index first = part.first(comm.rank()), count = part.count(comm.rank());
@@ -200,7 +200,7 @@ int MakeModel(const std::string& dir) {
   for (Index i = 0; i < n; ++i) P0.middleCols(i * c, c) = Spd(rng, c, 0.5);
   const CoupledSystem system(s, VectorXd::Zero(n * c), P0);
   kfx::SaveCoupledModel(dir + "/model.json", system);
-  kfx::WriteNpyMatrix(dir + "/y.npy", kfx::SimulateCoupled(system, 12, 5).y);
+  kfx::WriteNpyMatrix(dir + "/y.npy", kfx::SimulateCoupled(system, {12, 5}).y);
   return 0;
 }
 

@@ -63,7 +63,7 @@ def test_scalar_dare_is_the_positive_root(a, c, q, r, method):
     b = r - a * a * r - q * c * c
     p = (-b + math.sqrt(b * b + 4 * c * c * q * r)) / (2 * c * c)
     s = kfx.solve_filter_dare([[a]], [[c]], [[q]], [[r]], method=method)
-    assert s.summary.ok and s.summary.status == "converged"
+    assert s.summary.ok and s.summary.termination == "converged"
     assert s.P_pred[0, 0] == pytest.approx(p, rel=1e-11)
     kf = p * c / (c * c * p + r)
     assert s.filter_gain[0, 0] == pytest.approx(kf, rel=1e-11)
@@ -75,16 +75,16 @@ def test_double_integrator_dare_closed_form():
     # tests/riccati_test.cpp: a = 2, r = 1 gives q = 1/3, P = [2 1; 1 1], K_f = [2/3; 1/3], K_p = [1; 1/3].
     A = np.array([[1.0, 1.0], [0.0, 1.0]])
     s = kfx.solve_filter_dare(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]], exact_eigenvalues=True)
-    assert s.summary.eigenvalues_exact
+    assert s.eigenvalues_exact
     np.testing.assert_allclose(s.P_pred, [[2, 1], [1, 1]], atol=1e-13)
     np.testing.assert_allclose(s.filter_gain, [[2 / 3], [1 / 3]], atol=1e-14)
     np.testing.assert_allclose(s.predictor_gain, [[1], [1 / 3]], atol=1e-14)
-    assert s.summary.closed_loop_spectral_radius == pytest.approx(1 / math.sqrt(3), abs=1e-14)
+    assert s.closed_loop_spectral_radius == pytest.approx(1 / math.sqrt(3), abs=1e-14)
     assert kfx.filter_dare_residual(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]], s.P_pred) < 1e-14
     # Default: stability proven by the Lyapunov certificate, which reports an upper bound on rho.
     b = kfx.solve_filter_dare(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]])
-    assert b.summary.lyapunov_certified and not b.summary.eigenvalues_exact
-    assert 1 / math.sqrt(3) <= b.summary.closed_loop_spectral_radius < 1
+    assert b.lyapunov_certified and not b.eigenvalues_exact
+    assert 1 / math.sqrt(3) <= b.closed_loop_spectral_radius < 1
 
 
 def test_golden_ratio_and_lyapunov():
@@ -94,7 +94,9 @@ def test_golden_ratio_and_lyapunov():
     A = rng.standard_normal((5, 5))
     A *= 0.8 / kfx.spectral_radius(A)
     Q = np.eye(5)
-    X = kfx.solve_discrete_lyapunov(A, Q)
+    sol = kfx.solve_discrete_lyapunov(A, Q)
+    assert sol.summary.ok and sol.summary.termination == "converged"
+    X = sol.X
     # independent: the Kronecker form (I - A (x) A) vec X = vec Q
     Xk = np.linalg.solve(np.eye(25) - np.kron(A, A), Q.reshape(-1)).reshape(5, 5)
     np.testing.assert_allclose(X, Xk, rtol=1e-10, atol=1e-12)
@@ -294,7 +296,7 @@ def test_exact_performance_of_the_kalman_filter_is_its_own_covariance(random_mod
     dare = kfx.solve_filter_dare(d["A"], d["C"], d["Q"], d["R"])
     cg = kfx.constant_gain_as_linear_filter(model.step(1), dare.filter_gain, d["m0"])
     st = kfx.exact_stationary_performance(model, cg)
-    assert st.exists and st.mse == pytest.approx(np.trace(dare.P_filt), rel=1e-9)
+    assert st.summary.ok and st.mse == pytest.approx(np.trace(dare.P_filt), rel=1e-9)
     long = kfx.exact_performance(model, cg, steps=400, store_error_moments=False)
     assert long.mse[-1] == pytest.approx(st.mse, rel=1e-8)
 
@@ -365,3 +367,23 @@ def test_numerical_breakdown_raises_numerical_error():
     expect_error(lambda: kfx.update(est, step, np.array([1.0])), "innovation covariance", exc=kfx.NumericalError)
     ok = kfx.update(kfx.Estimate(np.zeros(1), np.ones((1, 1))), step, np.array([1.0]))
     assert ok.estimate.x[0] == pytest.approx(0.5) and ok.gain[0, 0] == pytest.approx(0.5)
+
+
+def test_one_summary_shape_reports_numerical_outcomes():
+    # The DARE, the Lyapunov equation and the stationary analysis report how they ended in the same
+    # kfx.Summary; numerical outcomes are never raised.
+    s = kfx.solve_filter_dare(np.eye(1), np.eye(1), np.eye(1), np.eye(1))
+    assert isinstance(s.summary, kfx.Summary) and s.summary.ok
+    assert s.summary.computation == "filter DARE" and s.summary.method in ("doubling", "schur")
+    assert s.summary.relative_residual < 1e-14 and "rho(A - K_p C)" in s.summary.details
+    assert "termination" in s.summary.full_report() and "\n" not in s.summary.brief_report()
+    undetectable = kfx.solve_filter_dare(np.array([[1.5]]), np.zeros((1, 1)), np.eye(1), np.eye(1))
+    assert not undetectable.summary.ok and undetectable.summary.termination == "not_detectable"
+    singular = kfx.solve_discrete_lyapunov(np.eye(2), np.eye(2))
+    assert isinstance(singular.summary, kfx.Summary)
+    assert singular.summary.termination == "singular" and "spectral radius 1" in singular.summary.message
+    model = kfx.Model(A=np.array([[1.0]]), C=np.eye(1), Q=np.eye(1), R=np.eye(1), m0=np.zeros(1), P0=np.eye(1))
+    wrong = kfx.constant_gain_as_linear_filter(kfx.ModelStep(np.array([[0.5]]), np.eye(1), np.eye(1), np.eye(1)),
+                                                np.array([[0.5]]), np.zeros(1))
+    st = kfx.exact_stationary_performance(model, wrong)
+    assert st.summary.termination == "unstable" and math.isinf(st.mse)

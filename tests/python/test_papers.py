@@ -66,7 +66,7 @@ def test_identical_subsystems_reduction_matches_the_dense_dare():
     dare = kfx.solve_filter_dare(dense.A, dense.C, dense.Q, dense.R)
     np.testing.assert_allclose(a.full_P.dense(), dare.P_filt, rtol=1e-9, atol=1e-12)
     bd = kfx.solve_block_diagonal_steady_state(kfx.make_identical_coupled_step(n, F, H, V, R, g, U))
-    assert bd.summary.converged
+    assert bd.summary.ok and bd.summary.termination == "converged"
     np.testing.assert_allclose(kfx.block_diagonal_to_dense(bd.P_filt, 2), a.block_P.dense(), rtol=1e-8, atol=1e-12)
     # the block-diagonal filter's own covariance is not its true error; the engine's is >= Kalman's
     assert np.trace(a.block_true.dense()) >= np.trace(dare.P_filt) * (1 - 1e-12)
@@ -82,7 +82,7 @@ def test_stationary_mismatch_equals_the_engine_and_bounds_hold():
     truth = kfx.apply_modeling_errors(design, errors)
     np.testing.assert_allclose(truth.A, d["A"] - 0.05 * np.eye(4))
     sm = kfx.stationary_mismatched_covariance(design, truth)
-    assert sm.ok and sm.relative_residual < 1e-9
+    assert sm.summary.ok and sm.summary.relative_residual < 1e-9
     truth_model = kfx.Model(truth, np.zeros(4), np.eye(4))
     f = kfx.constant_gain_as_linear_filter(design, sm.filter_gain, np.zeros(4))
     st = kfx.exact_stationary_performance(truth_model, f)
@@ -138,7 +138,7 @@ def test_sampled_filter_and_kalman_bucy_scalar_closed_forms():
 def test_care_is_the_long_time_limit():
     m = kfx.ContinuousModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], Q=[[1.0]], R=[[1.0]], m0=[0.0], P0=[[1.0]])
     care = kfx.solve_filter_care(m)
-    assert care.ok and care.P[0, 0] == pytest.approx(math.sqrt(2) - 1, rel=1e-12)
+    assert care.summary.ok and care.P[0, 0] == pytest.approx(math.sqrt(2) - 1, rel=1e-12)
     assert kfx.kalman_bucy_covariance(m, 40.0)[0, 0] == pytest.approx(care.P[0, 0], rel=1e-10)
     t, z, dy = kfx.simulate_continuous(m, 1.0, 50, seed=3)
     assert t.shape == (51,) and z.shape == (51, 1) and dy.shape == (50, 1)
@@ -210,18 +210,18 @@ def test_full_space_subspace_filter_is_the_kalman_filter_and_wave_reduced_filter
     wave = kfx.damped_wave(fine_nodes=11, coarse_nodes=2)
     fine = wave.fine.step
     N = fine.state_dim
-    S = kfx.solve_discrete_lyapunov(fine.A, fine.Q)
+    S = kfx.solve_discrete_lyapunov(fine.A, fine.Q).X
     sub = wave.subspace
     assert sub.reduced_dim == 4 and sub.full_dim == N
     sch = kfx.subspace_filter_schedule(fine, S, sub, stationary_prior=True)
-    assert sch.converged
+    assert sch.summary.ok
     truth = kfx.Model(fine, np.zeros(N), S)
     reduced = kfx.exact_stationary_performance(truth, kfx.converged_subspace_filter_as_linear_filter(fine, sub, sch, np.zeros(N)),
                                                weight=sub.gram)
     dare = kfx.solve_filter_dare(fine.A, fine.C, fine.Q, fine.R)
     full = kfx.exact_stationary_performance(truth, kfx.constant_gain_as_linear_filter(fine, dare.filter_gain, np.zeros(N)),
                                             weight=sub.gram)
-    assert reduced.exists and full.exists
+    assert reduced.summary.ok and full.summary.ok
     assert full.weighted_mse <= reduced.weighted_mse * (1 + 1e-10)
     b = kfx.discretization_bounds(fine, S, sub, sch)
     assert b.actual >= -1e-12 and b.theorem41_exact_dP >= b.actual * (1 - 1e-9)

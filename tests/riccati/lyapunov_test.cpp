@@ -1,4 +1,4 @@
-// Tests of SolveDiscreteLyapunov and SpectralRadius (src/riccati.cpp). Oracles: the scalar
+// Tests of SolveDiscreteLyapunov and SpectralRadius (src/riccati/lyapunov.cpp, linear_algebra.cpp). Oracles: the scalar
 // closed form, the Kronecker-product linear system (I - A (x) A) vec X = vec Q for small n,
 // residuals and invariants for n up to 200, and every invalid / singular input.
 #include <gtest/gtest.h>
@@ -19,18 +19,26 @@ using Eigen::MatrixXd;
 using kfx::testing::RelativeDifference;
 using kfx::testing::TestRng;
 
+LyapunovOptions Schur() {
+  LyapunovOptions o;
+  o.method = LyapunovMethod::kSchur;
+  return o;
+}
+
 TEST(LyapunovScalar, MatchesClosedForm) {
   // x = a^2 x + q  =>  x = q / (1 - a^2), also for |a| > 1 (then x < 0 for q > 0).
   for (const auto& [a, q] : {std::pair{0.5, 1.0}, std::pair{-0.9, 2.0}, std::pair{0.0, 3.0}, std::pair{0.999, 1e-3},
                              std::pair{2.0, 1.0}, std::pair{0.3, -1.0}}) {
-    LyapunovSummary summary;
-    const MatrixXd x = SolveDiscreteLyapunov(MatrixXd::Constant(1, 1, a), MatrixXd::Constant(1, 1, q), &summary);
+    const LyapunovSolution sol =
+        SolveDiscreteLyapunov(MatrixXd::Constant(1, 1, a), MatrixXd::Constant(1, 1, q), Schur());
+    const MatrixXd& x = sol.X;
     const double expected = q / (1 - a * a);
     ASSERT_EQ(x.rows(), 1);
     EXPECT_NEAR(x(0, 0), expected, 1e-14 * std::abs(expected)) << "a = " << a;
-    EXPECT_TRUE(summary.ok);
-    EXPECT_NEAR(summary.spectral_radius, std::abs(a), 1e-15);
-    EXPECT_LE(summary.relative_residual, 1e-15);
+    EXPECT_TRUE(sol.summary.ok());
+    EXPECT_EQ(sol.summary.method, "schur");
+    EXPECT_NEAR(sol.spectral_radius, std::abs(a), 1e-15);
+    EXPECT_LE(sol.summary.relative_residual, 1e-15);
   }
 }
 
@@ -53,7 +61,7 @@ TEST(LyapunovKronecker, AgreesForSmallSystems) {
       const MatrixXd A = rng.WithSpectralRadius(n, rho);
       const MatrixXd G = rng.Gaussian(n, n);
       const MatrixXd Q = G + G.transpose();  // symmetric, indefinite
-      const MatrixXd X = SolveDiscreteLyapunov(A, Q);
+      const MatrixXd X = SolveDiscreteLyapunov(A, Q).X;
       EXPECT_LE(RelativeDifference(X, KroneckerSolve(A, Q)), 1e-11) << "n = " << n << ", rho = " << rho;
       EXPECT_EQ(X, X.transpose());
     }
@@ -66,14 +74,14 @@ TEST(LyapunovRandom, StableSystemsHaveSmallResidualAndPsdSolution) {
   for (int n : {1, 2, 3, 5, 10, 20, 50, 100, 200}) {
     const MatrixXd A = rng.WithSpectralRadius(n, 0.95);
     const MatrixXd Q = rng.Spd(n);
-    LyapunovSummary summary;
-    const MatrixXd X = SolveDiscreteLyapunov(A, Q, &summary);
-    ASSERT_TRUE(summary.ok) << summary.message;
+    const LyapunovSolution sol = SolveDiscreteLyapunov(A, Q, Schur());
+    const MatrixXd& X = sol.X;
+    ASSERT_TRUE(sol.summary.ok()) << sol.summary.message;
     const MatrixXd res = X - A * X * A.transpose() - Q;
     const double residual = res.norm() / X.norm();
     EXPECT_LE(residual, 1e-13) << "n = " << n;
-    EXPECT_NEAR(summary.relative_residual, residual, 1e-14);
-    EXPECT_NEAR(summary.spectral_radius, 0.95, 1e-10);
+    EXPECT_NEAR(sol.summary.relative_residual, residual, 1e-14);
+    EXPECT_NEAR(sol.spectral_radius, 0.95, 1e-10);
     EXPECT_NEAR(SpectralRadius(A), 0.95, 1e-10);
     EXPECT_EQ(X, X.transpose());
     const double min_eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(X, Eigen::EigenvaluesOnly).eigenvalues()(0);
@@ -81,21 +89,28 @@ TEST(LyapunovRandom, StableSystemsHaveSmallResidualAndPsdSolution) {
   }
 }
 
-// Without a summary a stable A goes to the squared Smith iteration (SB03MD beyond rho ~ 0.998 or on
-// a residual above 1e-13); with one, always SB03MD: the two must agree.
+// kAuto sends a stable A to the squared Smith iteration (SB03MD beyond rho ~ 0.998 or on a residual
+// above 1e-13); kSchur always to SB03MD: the two must agree, and each reports its own residual.
 TEST(LyapunovRandom, SmithPathAgreesWithSb03md) {
   TestRng rng(24);
   for (int n : {3, 40, 120}) {
     for (double rho : {0.3, 0.95, 0.99, 0.999, 1.2}) {
       const MatrixXd A = rng.WithSpectralRadius(n, rho);
       const MatrixXd Q = rng.Spd(n);
-      LyapunovSummary summary;
-      const MatrixXd X_schur = SolveDiscreteLyapunov(A, Q, &summary);
-      const MatrixXd X = SolveDiscreteLyapunov(A, Q);
+      const MatrixXd X_schur = SolveDiscreteLyapunov(A, Q, Schur()).X;
+      const LyapunovSolution sol = SolveDiscreteLyapunov(A, Q);
+      const MatrixXd& X = sol.X;
       EXPECT_LE(RelativeDifference(X, X_schur), 1e-11) << "n = " << n << ", rho = " << rho;
       EXPECT_EQ(X, X.transpose());
       const double residual = (X - A * X * A.transpose() - Q).norm() / X.norm();
       EXPECT_LE(residual, 1e-13) << "n = " << n << ", rho = " << rho;
+      EXPECT_NEAR(sol.summary.relative_residual, residual, 1e-14) << sol.summary.method;
+      if (rho <= 0.95) {  // well inside the Smith iteration's reach
+        EXPECT_EQ(sol.summary.method, "smith");
+      }
+      if (rho > 1.0) {
+        EXPECT_EQ(sol.summary.method, "schur");
+      }
     }
   }
 }
@@ -106,18 +121,17 @@ TEST(LyapunovRandom, PsdRankDeficientNoiseGivesPsdSolution) {
   const MatrixXd A = rng.WithSpectralRadius(n, 0.9);
   const MatrixXd B = rng.Gaussian(n, 2);
   const MatrixXd Q = B * B.transpose();
-  const MatrixXd X = SolveDiscreteLyapunov(A, Q);
+  const MatrixXd X = SolveDiscreteLyapunov(A, Q).X;
   const double min_eig = Eigen::SelfAdjointEigenSolver<MatrixXd>(X, Eigen::EigenvaluesOnly).eigenvalues()(0);
   EXPECT_GE(min_eig, -1e-12 * X.norm());
 }
 
 TEST(LyapunovShapes, EmptyMatrixGivesEmptySolution) {
-  LyapunovSummary summary;
-  const MatrixXd X = SolveDiscreteLyapunov(MatrixXd(0, 0), MatrixXd(0, 0), &summary);
-  EXPECT_EQ(X.rows(), 0);
-  EXPECT_EQ(X.cols(), 0);
-  EXPECT_TRUE(summary.ok);
-  EXPECT_EQ(summary.spectral_radius, 0.0);
+  const LyapunovSolution sol = SolveDiscreteLyapunov(MatrixXd(0, 0), MatrixXd(0, 0));
+  EXPECT_EQ(sol.X.rows(), 0);
+  EXPECT_EQ(sol.X.cols(), 0);
+  EXPECT_TRUE(sol.summary.ok());
+  EXPECT_EQ(sol.spectral_radius, 0.0);
   EXPECT_EQ(SpectralRadius(MatrixXd(0, 0)), 0.0);
 }
 
@@ -126,15 +140,35 @@ auto Solving(const MatrixXd& A, const MatrixXd& Q) {
   return [A, Q] { SolveDiscreteLyapunov(A, Q); };
 }
 
-TEST(LyapunovSingular, ReciprocalEigenvaluesThrowWithTheSpectralRadius) {
+// A singular equation is a numerical outcome, reported in the Summary with the spectral radius (never
+// thrown): each case below has an eigenvalue pair with lambda_i lambda_j = 1.
+void ExpectSingular(const MatrixXd& A, const std::string& radius) {
+  for (const LyapunovMethod method : {LyapunovMethod::kAuto, LyapunovMethod::kSchur}) {
+    LyapunovOptions o;
+    o.method = method;
+    const LyapunovSolution sol = SolveDiscreteLyapunov(A, MatrixXd::Identity(A.rows(), A.rows()), o);
+    EXPECT_EQ(sol.summary.termination, Termination::kSingular) << sol.summary.FullReport();
+    EXPECT_NE(sol.summary.message.find("spectral radius " + radius), std::string::npos) << sol.summary.message;
+    EXPECT_EQ(sol.X.size(), 0);
+  }
+}
+
+TEST(LyapunovSingular, ReciprocalEigenvaluesAreReportedWithTheSpectralRadius) {
   const MatrixXd rot = Eigen::Rotation2Dd(0.4).toRotationMatrix();  // lambda lambda-bar = 1
-  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(MatrixXd::Identity(3, 3), MatrixXd::Identity(3, 3)),
-                                               "A:", {"spectral radius 1"}));
-  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
-      Solving((MatrixXd(2, 2) << 2, 1, 0, 0.5).finished(), MatrixXd::Identity(2, 2)), "A:", {"spectral radius 2"}));
-  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(rot, MatrixXd::Identity(2, 2)), "A:", {"spectral radius"}));
-  EXPECT_TRUE(testing::ThrowsErrorStartingWith(Solving(-MatrixXd::Identity(1, 1), MatrixXd::Identity(1, 1)),
-                                               "A:", {"spectral radius 1"}));
+  ExpectSingular(MatrixXd::Identity(3, 3), "1");
+  ExpectSingular((MatrixXd(2, 2) << 2, 1, 0, 0.5).finished(), "2");
+  ExpectSingular(rot, "");
+  ExpectSingular(-MatrixXd::Identity(1, 1), "1");
+}
+
+TEST(LyapunovSingular, TheSmithIterationAloneReportsNoConvergenceBeyondItsReach) {
+  LyapunovOptions o;
+  o.method = LyapunovMethod::kSmith;
+  const LyapunovSolution unstable = SolveDiscreteLyapunov(1.5 * MatrixXd::Identity(2, 2), MatrixXd::Identity(2, 2), o);
+  EXPECT_EQ(unstable.summary.termination, Termination::kNotConverged) << unstable.summary.FullReport();
+  const LyapunovSolution stable = SolveDiscreteLyapunov(0.5 * MatrixXd::Identity(2, 2), MatrixXd::Identity(2, 2), o);
+  ASSERT_TRUE(stable.summary.ok());
+  EXPECT_LT((stable.X - MatrixXd::Identity(2, 2) / 0.75).norm(), 1e-14);
 }
 
 TEST(LyapunovValidation, InvalidInputThrowsNamingTheArgument) {

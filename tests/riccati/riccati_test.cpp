@@ -298,7 +298,7 @@ TEST(DareShapes, NoMeasurementsIsTheLyapunovEquation) {
   const MatrixXd A = rng.WithSpectralRadius(n, 0.8);
   const MatrixXd Q = rng.Spd(n);
   const MatrixXd C(0, n), R(0, 0);
-  const MatrixXd X = SolveDiscreteLyapunov(A, Q);
+  const MatrixXd X = SolveDiscreteLyapunov(A, Q).X;
   for (DareMethod method : {DareMethod::kDoubling, DareMethod::kSchur}) {
     const DareSolution s = SolveFilterDare(A, C, Q, R, WithMethod(method));
     ASSERT_TRUE(s.summary.ok()) << s.summary.FullReport();
@@ -364,7 +364,8 @@ TEST(DareDiagnosis, NoiselessModeOnTheUnitCircleIsNotStabilizable) {
     for (DareMethod method : {DareMethod::kAuto, DareMethod::kDoubling, DareMethod::kSchur}) {
       DareSolution s;
       ASSERT_NO_THROW(s = SolveFilterDare(c.A, c.C, c.Q, c.R, WithMethod(method)));
-      EXPECT_EQ(s.summary.termination, Termination::kNotStabilizable) << ToString(method) << ": " << s.summary.FullReport();
+      EXPECT_EQ(s.summary.termination, Termination::kNotStabilizable)
+          << ToString(method) << ": " << s.summary.FullReport();
       if (method != DareMethod::kSchur) {  // doubling's result: the (non-stabilizing) solution P = 0
         EXPECT_MATRICES_NEAR(s.P_pred, MatrixXd::Zero(c.A.rows(), c.A.rows()), 1e-14);
         // The certificate cannot decide (P = 0 is not positive definite): the eigenvalues do.
@@ -432,12 +433,9 @@ TEST(StabilityCertificate, AgreesWithTheEigenvaluesOnRandomStableAndUnstableMatr
         TestRng rng(100 * n + static_cast<int>(1000 * rho) + 7 * seed);
         const MatrixXd F = rng.WithSpectralRadius(n, rho);
         const MatrixXd Q = rng.Spd(n);
-        MatrixXd X;
-        try {
-          X = SolveDiscreteLyapunov(F, Q);
-        } catch (const Error&) {
-          continue;  // (nearly) reciprocal eigenvalue pair: no X to test with
-        }
+        const LyapunovSolution lyapunov = SolveDiscreteLyapunov(F, Q);
+        if (!lyapunov.summary.ok()) continue;  // (nearly) reciprocal eigenvalue pair: no X to test with
+        const MatrixXd& X = lyapunov.X;
         const StabilityCertificate cert = CertifyStability(F, X);
         const double exact = Rho(F);
         SCOPED_TRACE("n = " + std::to_string(n) + ", rho = " + std::to_string(exact) + ": " + cert.summary.message);
@@ -630,13 +628,17 @@ TEST(DareResidual, IsZeroAtTheSolutionAndValidatesItsInput) {
 }
 
 TEST(DareReport, NamesStatusAndMethod) {
-  const std::pair<DareStatus, const char*> statuses[] = {{Termination::kConverged, "converged"},
-                                                         {Termination::kNotConverged, "not_converged"},
-                                                         {Termination::kNotStabilizing, "not_stabilizing"},
-                                                         {Termination::kNotDetectable, "not_detectable"},
-                                                         {Termination::kNotStabilizable, "not_stabilizable"},
-                                                         {Termination::kFailed, "failed"}};
-  for (const auto& [status, text] : statuses) EXPECT_STREQ(ToString(status), text);
+  // The terminations a DARE reports, with the text the CLI's JSON carries.
+  const std::pair<Termination, const char*> statuses[] = {{Termination::kConverged, "converged"},
+                                                          {Termination::kNotConverged, "not_converged"},
+                                                          {Termination::kNotStabilizing, "not_stabilizing"},
+                                                          {Termination::kNotDetectable, "not_detectable"},
+                                                          {Termination::kNotStabilizable, "not_stabilizable"},
+                                                          {Termination::kFailed, "failed"}};
+  for (const auto& [status, text] : statuses) {
+    EXPECT_STREQ(ToString(status), text);
+    EXPECT_EQ(ParseEnum<Termination>("status", text), status);
+  }
   EXPECT_STREQ(ToString(DareMethod::kAuto), "auto");
   EXPECT_STREQ(ToString(DareMethod::kDoubling), "doubling");
   EXPECT_STREQ(ToString(DareMethod::kSchur), "schur");
@@ -646,7 +648,7 @@ TEST(DareReport, NamesStatusAndMethod) {
   EXPECT_NE(s.summary.BriefReport().find("doubling"), std::string::npos);
   EXPECT_EQ(s.summary.BriefReport().find('\n'), std::string::npos);
   const std::string full = s.summary.FullReport();
-  for (const char* key : {"status", "relative residual", "rho(A - K_p C)", "solve time", "message"}) {
+  for (const char* key : {"termination", "method", "relative residual", "rho(A - K_p C)", "time [s]", "message"}) {
     EXPECT_NE(full.find(key), std::string::npos) << key << " missing in\n" << full;
   }
 }

@@ -897,7 +897,6 @@ CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind,
 
 LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind,
                                          const CoupledFilterOptions& options) {
-  if (options.steps < 0) throw Error("options.steps: expected a number of steps >= 0, got " + std::to_string(options.steps));
   const int T = system.ResolveSteps(options.steps);
   std::vector<LinearFilterStep> out;
   out.reserve(static_cast<size_t>(T));

@@ -125,9 +125,10 @@ BlockDiagonalSteadyState SolveBlockDiagonalSteadyState(const CoupledStep& s, con
       sum.relative_change = size > 0 ? change / size : change;
       P = std::move(st.P_filt);
       out.gain = std::move(st.gain);
-      if (!std::isfinite(sum.relative_change)) {
-        sum.termination = Termination::kFailed;
-        sum.message = "the iteration diverged (non-finite covariance)";
+      // The norms overflow before the entries do: a growing covariance must not read as a zero change.
+      if (!std::isfinite(size) || !std::isfinite(change)) {
+        sum.termination = Termination::kUnstable;
+        sum.message = "the covariance grows without bound (no steady state: e.g. an unstable mode is not measured)";
         return;
       }
       if (options.progress) options.progress(it, options.max_iterations);
@@ -343,13 +344,14 @@ void IdenticalBlockSteadyState(const IdenticalSubsystems& sys, double nn, const 
       Posterior(L + nn * gUg, sys.H, sys.R, &pm, Km);
       MatrixXd Xn = pc + (pm - pc) / nn;
       Symmetrize(Xn);
-      const double size = Xn.norm();
+      const double size = Xn.norm(), change = (Xn - X).norm();
       sum->iterations = it;
-      sum->relative_change = size > 0 ? (Xn - X).norm() / size : (Xn - X).norm();
+      sum->relative_change = size > 0 ? change / size : change;
       X = std::move(Xn);
-      if (!std::isfinite(sum->relative_change)) {
-        sum->termination = Termination::kFailed;
-        sum->message = "the iteration diverged (non-finite covariance)";
+      // The norms overflow before the entries do: a growing covariance must not read as a zero change.
+      if (!std::isfinite(size) || !std::isfinite(change)) {
+        sum->termination = Termination::kUnstable;
+        sum->message = "the covariance grows without bound (no steady state: e.g. an unstable mode is not measured)";
         return;
       }
       if (options.progress) options.progress(it, options.max_iterations);
@@ -391,8 +393,7 @@ IdenticalAnalysis AnalyzeIdenticalSubsystems(const IdenticalSubsystems& sys, Ind
     a.block_P = FromModes(n, X, X);
     a.block_gain = FromModes(n, Kc, Km);
     // True stationary errors, mode by mode, through the exact-performance engine.
-    a.block_true =
-        FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, Kc), TrueError(sys.F, sys.H, Qmean, sys.R, Km));
+    a.block_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, Kc), TrueError(sys.F, sys.H, Qmean, sys.R, Km));
     a.banded_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, band.filter_gain),
                               TrueError(sys.F, sys.H, Qmean, sys.R, band.filter_gain));
     a.full_true = FromModes(n, TrueError(sys.F, sys.H, sys.V, sys.R, unc.filter_gain),

@@ -8,12 +8,12 @@
 #include <cmath>
 #include <string>
 
-#include "riccati/slicot.hpp"
 #include "kfx/discretize.hpp"
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/simulation.hpp"
 #include "kfx/validation.hpp"
+#include "riccati/slicot.hpp"
 
 namespace kfx {
 

@@ -226,8 +226,8 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
   }
   if (out.filter_spectral_radius >= 1.0) {
     sum.termination = Termination::kUnstable;
-    sum.message = "the filter is unstable: rho(L A_M) = " + std::to_string(out.filter_spectral_radius) +
-                  " >= 1, its error grows";
+    sum.message =
+        "the filter is unstable: rho(L A_M) = " + std::to_string(out.filter_spectral_radius) + " >= 1, its error grows";
     return finish();
   }
   // (17): U = A U A^T + G Q G^T.

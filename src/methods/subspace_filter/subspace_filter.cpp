@@ -429,8 +429,8 @@ ApproximateSubspaceFilter ComputeApproximateSubspaceFilter(const ModelStep& trut
     const double lmin = es.eigenvalues().minCoeff(), lmax = es.eigenvalues().cwiseAbs().maxCoeff();
     if (lmin < -1e-9 * lmax) {
       sum.termination = Termination::kLostDefiniteness;
-      sum.message = "Pi (Q + A V^ A^T) Pi^T is not positive semidefinite (smallest eigenvalue " +
-                    FormatNumber(lmin) + ")";
+      sum.message =
+          "Pi (Q + A V^ A^T) Pi^T is not positive semidefinite (smallest eigenvalue " + FormatNumber(lmin) + ")";
       return finish(out);
     }
     if (lmin < 0) {

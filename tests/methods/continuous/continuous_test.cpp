@@ -299,8 +299,8 @@ TEST(Care, ResidualAndLongTimeLimit) {
   for (int t = 0; t < 3; ++t) models.push_back(RandomModel(rng, 2 + t, 2, 1 + t % 2, -0.5));  // some unstable A
   for (const ContinuousModel& m : models) {
     const CareSolution care = SolveFilterCare(m);
-    ASSERT_TRUE(care.ok) << care.message;
-    EXPECT_LT(care.relative_residual, 1e-12) << care.message << "\n" << care.P;
+    ASSERT_TRUE(care.summary.ok()) << care.summary.FullReport();
+    EXPECT_LT(care.summary.relative_residual, 1e-12) << care.summary.message << "\n" << care.P;
     EXPECT_LT(care.closed_loop_max_real, 0.0);
     EXPECT_LT(testing::RelativeDifference(KalmanBucyCovariance(m, 200.0), care.P), 1e-9);
   }
@@ -319,7 +319,8 @@ TEST(ErrorIdentity, JointCovarianceOfCoarseAndFineFilters) {
     const int n = 4, N = 32, ratio = N / n;
     const Eigen::Index p = 2, r = 1, na = 2 * p;
     const Model coarse = SampledModel(m, T, n), fine = SampledModel(m, T, N);
-    const KalmanSchedule cs = ComputeKalmanSchedule(coarse, n), fs = ComputeKalmanSchedule(fine, N);
+    const KalmanSchedule cs = ComputeKalmanSchedule(coarse, KalmanScheduleOptions{n}),
+                         fs = ComputeKalmanSchedule(fine, KalmanScheduleOptions{N});
     const StepPtr c1 = coarse.step(1);    // the callback model returns a fresh pointer
     const Eigen::Index nz = na + r + na;  // [coarse xhat; accumulated increments; fine xhat]
     const MatrixXd I_na = MatrixXd::Identity(na, na);

@@ -81,9 +81,9 @@ TEST(MismatchStationary, EqualsEngineJointCovarianceOnRandomMismatchedSystems) {
     const ModelStep truth = RandomStep(rng, n, m, p, 0.5 + 0.02 * seed);
     const ModelStep design = PerturbedDesign(rng, truth, 0.15);
     const StationaryMismatch s = StationaryMismatchedCovariance(design, truth);
-    if (s.status == MismatchStatus::kFilterUnstable) continue;
-    ASSERT_TRUE(s.ok()) << "seed " << seed << ": " << s.message;
-    EXPECT_LT(s.relative_residual, 1e-12) << "seed " << seed;
+    if ((s.summary.termination == Termination::kUnstable && s.filter_spectral_radius >= 1.0)) continue;
+    ASSERT_TRUE(s.summary.ok()) << "seed " << seed << ": " << s.summary.message;
+    EXPECT_LT(s.summary.relative_residual, 1e-12) << "seed " << seed;
     const Model truth_model(truth, VectorXd::Zero(n), MatrixXd::Identity(n, n));
     const LinearFilter f = ConstantGainAsLinearFilter(design, s.filter_gain, VectorXd::Zero(n));
     const StationaryPerformance engine = ExactStationaryPerformance(truth_model, f);
@@ -100,7 +100,7 @@ TEST(MismatchStationary, ZeroErrorsGiveKalmanFilterCovariance) {
     const Eigen::Index n = 1 + seed % 4;
     const ModelStep step = RandomStep(rng, n, 1 + seed % 2, seed % 2, 0.8);
     const StationaryMismatch s = StationaryMismatchedCovariance(step, step);
-    ASSERT_TRUE(s.ok()) << s.message;
+    ASSERT_TRUE(s.summary.ok()) << s.summary.message;
     const DareSolution dare = SolveFilterDare(step.A, step.C, step.Q, step.R);
     EXPECT_MATRICES_NEAR(s.P, dare.P_filt, 1e-12 * std::max(1.0, dare.P_filt.norm()));
     // Orthogonality of the optimal estimate: E[x x~^T] = E[(x^ - x~) x~^T] = -P.
@@ -123,9 +123,9 @@ TEST(MismatchSequence, EqualsExactPerformanceAtEveryStep) {
     }
     const Model truth(ts, rng.Gaussian(n, 1), rng.Spd(n, 0.5));
     const Model design(ds, rng.Gaussian(n, 1), rng.Spd(n, 0.5));
-    const MismatchSequence seq = MismatchedCovarianceSequence(design, truth, 3);
+    const MismatchSequence seq = MismatchedCovarianceSequence(design, truth, MismatchSequenceOptions{3});
     const PerformanceResult exact =
-        ExactPerformance(truth, KalmanAsLinearFilter(design, ComputeKalmanSchedule(design, 3)));
+        ExactPerformance(truth, KalmanAsLinearFilter(design, ComputeKalmanSchedule(design, KalmanScheduleOptions{3})));
     for (int k = 0; k <= 3; ++k) {
       const MatrixXd& E = exact.error_moment[static_cast<size_t>(k)];
       EXPECT_MATRICES_NEAR(seq.P[static_cast<size_t>(k)], E, 1e-12 * std::max(1.0, E.norm()))
@@ -139,10 +139,10 @@ TEST(MismatchSequence, ConvergesToTheStationarySolution) {
   const ModelStep truth = RandomStep(rng, 3, 2, 2, 0.7);
   const ModelStep design = PerturbedDesign(rng, truth, 0.1);
   const StationaryMismatch s = StationaryMismatchedCovariance(design, truth);
-  ASSERT_TRUE(s.ok()) << s.message;
+  ASSERT_TRUE(s.summary.ok()) << s.summary.message;
   const Model tm(truth, VectorXd::Zero(3), MatrixXd::Identity(3, 3));
   const Model dm(design, VectorXd::Zero(3), MatrixXd::Identity(3, 3));
-  const MismatchSequence seq = MismatchedCovarianceSequence(dm, tm, 300);
+  const MismatchSequence seq = MismatchedCovarianceSequence(dm, tm, MismatchSequenceOptions{300});
   EXPECT_MATRICES_NEAR(seq.P.back(), s.P, 1e-9 * s.P.norm());
   EXPECT_MATRICES_NEAR(seq.V.back(), s.V, 1e-9 * std::max(1.0, s.V.norm()));
   EXPECT_MATRICES_NEAR(seq.U.back(), s.U, 1e-9 * s.U.norm());
@@ -155,12 +155,13 @@ TEST(MismatchSequence, MonteCarloAgreesWithinItsConfidenceInterval) {
   const Model tm(truth, VectorXd::Ones(2), 0.5 * MatrixXd::Identity(2, 2));
   const Model dm(design, VectorXd::Zero(2), MatrixXd::Identity(2, 2));
   const int T = 8;
-  const MismatchSequence seq = MismatchedCovarianceSequence(dm, tm, T);
+  const MismatchSequence seq = MismatchedCovarianceSequence(dm, tm, MismatchSequenceOptions{T});
   MonteCarloOptions mo;
   mo.runs = 3000;
   mo.steps = T;
   mo.seed = 11;
-  const MonteCarloResult mc = MonteCarloPerformance(tm, KalmanAsLinearFilter(dm, ComputeKalmanSchedule(dm, T)), mo);
+  const MonteCarloResult mc =
+      MonteCarloPerformance(tm, KalmanAsLinearFilter(dm, ComputeKalmanSchedule(dm, KalmanScheduleOptions{T})), mo);
   for (int k : {1, 4, T}) {
     EXPECT_LT(std::abs(mc.mse(k) - seq.trace(k)), 4.0 * mc.mse_std_error(k))
         << "k " << k << ": exact " << seq.trace(k) << ", Monte Carlo " << mc.mse(k) << " +- " << mc.mse_std_error(k);
@@ -236,7 +237,7 @@ TEST(MismatchBounds, Theorems3And4HoldInsideNoiseErrorBoxes) {
       ModelStep truth;
       if (!RandomPointInBox(gen, design, ranges, &e, &truth)) continue;
       const StationaryMismatch s = StationaryMismatchedCovariance(design, truth, fixed);
-      ASSERT_TRUE(s.ok()) << s.message;
+      ASSERT_TRUE(s.summary.ok()) << s.summary.message;
       EXPECT_GE(*b.pi3, s.trace) << "seed " << seed;
       const double pf = SolveFilterDare(truth.A, truth.C, truth.Q, truth.R).P_filt.trace();
       EXPECT_LE(*b.pi4, pf) << "seed " << seed;
@@ -259,7 +260,7 @@ TEST(MismatchBounds, Theorems5And6HoldInsidePlantErrorBoxes) {
     const PatelTodaBounds b = ComputePatelTodaBounds(design, ranges);
     ASSERT_TRUE(b.pi5 && b.pi6 && b.lemma);
     EXPECT_FALSE(b.pi3 || b.pi4);
-    ASSERT_TRUE(b.lemma->applies) << b.lemma->message;
+    ASSERT_TRUE(b.lemma->applies()) << b.lemma->summary.message;
     MismatchOptions fixed;
     fixed.filter_gain = b.terms.filter_gain;
     for (int draw = 0; draw < 20; ++draw) {
@@ -267,8 +268,8 @@ TEST(MismatchBounds, Theorems5And6HoldInsidePlantErrorBoxes) {
       ModelStep truth;
       if (!RandomPointInBox(gen, design, ranges, &e, &truth)) continue;
       const StationaryMismatch s = StationaryMismatchedCovariance(design, truth, fixed);
-      if (s.status == MismatchStatus::kFilterUnstable) continue;
-      ASSERT_TRUE(s.ok()) << s.message;
+      if ((s.summary.termination == Termination::kUnstable && s.filter_spectral_radius >= 1.0)) continue;
+      ASSERT_TRUE(s.summary.ok()) << s.summary.message;
       EXPECT_GE(b.lemma->beta, Spectral(s.U)) << "seed " << seed;
       if (b.lemma->printed_is_valid) {
         EXPECT_GE(b.lemma->beta_printed, Spectral(s.U));
@@ -288,7 +289,7 @@ TEST(MismatchBounds, LemmaAsPrintedFailsBeyondItsLimitAndSoundBoundHolds) {
   const ModelStep design =
       MakeStep(MatrixXd::Constant(1, 1, 0.5), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1));
   const LemmaBound b = LemmaStateBound(design, 0.45);
-  ASSERT_TRUE(b.applies);
+  ASSERT_TRUE(b.applies());
   EXPECT_FALSE(b.printed_is_valid);
   const double true_u = 1.0 / (1.0 - 0.95 * 0.95);  // U = A U A + Q at A = 0.95
   EXPECT_LT(b.beta_printed, true_u);
@@ -344,7 +345,7 @@ TEST(MismatchErrorBox, PlantBoxSearchIsAtLeastTheGridExtreme) {
     e.A(1, 0) = -0.2 + 0.004 * i;
     const ModelStep truth = ApplyModelingErrors(design, e);
     const StationaryMismatch m = StationaryMismatchedCovariance(design, truth, fixed);
-    if (m.ok()) grid_max = std::max(grid_max, m.trace);
+    if (m.summary.ok()) grid_max = std::max(grid_max, m.trace);
     grid_min = std::min(grid_min, SolveFilterDare(truth.A, truth.C, truth.Q, truth.R).P_filt.trace());
   }
   EXPECT_GE(s.least_upper.value, grid_max * (1 - 1e-12));
@@ -387,12 +388,62 @@ TEST(MismatchInput, BadInputThrowsNamingTheArgument) {
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Theorem6Bound(design, noise); }, "norms"));
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { LemmaStateBound(design, -1.0); }, "dA_norm"));
   const Model dm(design, VectorXd::Zero(2), MatrixXd::Identity(2, 2));
-  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { MismatchedCovarianceSequence(dm, dm, -2); }, "steps"));
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { MismatchedCovarianceSequence(dm, dm, MismatchSequenceOptions{-2}); }, "steps"));
   ErrorBoxSearchOptions so;
   so.step_tolerance = 2.0;
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SearchErrorBox(design, ErrorRanges(), MismatchOptions(), so); },
                                          "step_tolerance"));
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { LoadErrorRanges("/nonexistent/ranges.json", design); }, "ranges.json"));
+}
+
+// One rule for one event: when the design's DARE fails, every computation that needs the design's gain
+// reports the DARE's own termination in its Summary ("design filter DARE: ..."), none throws.
+TEST(MismatchOutcomes, AFailedDesignDareIsTheSameOutcomeEverywhere) {
+  // (A, C) not detectable: the unstable mode 1.2 is not measured.
+  MatrixXd A(2, 2), C(1, 2);
+  A << 1.2, 0, 0, 0.5;
+  C << 0, 1;
+  const ModelStep design = MakeStep(A, C, MatrixXd::Identity(2, 2), MatrixXd::Ones(1, 1));
+  ModelStep truth = design;
+  truth.A(1, 1) = 0.4;
+  ErrorRanges ranges;
+  ranges.R = 0.1 * MatrixXd::Ones(1, 1);
+  const auto expect_design_dare = [](const Summary& s, const char* what) {
+    EXPECT_EQ(s.termination, Termination::kNotDetectable) << what << ": " << s.FullReport();
+    EXPECT_NE(s.message.find("design filter DARE: (A, C) is not detectable"), std::string::npos)
+        << what << ": " << s.message;
+  };
+  expect_design_dare(StationaryMismatchedCovariance(design, truth).summary, "StationaryMismatchedCovariance");
+  expect_design_dare(ComputeDesignTerms(design).summary, "ComputeDesignTerms");
+  expect_design_dare(Theorem1Bound(design, ModelingErrorsBetween(design, truth)).summary, "Theorem1Bound");
+  const PatelTodaBounds b = ComputePatelTodaBounds(design, ranges);
+  expect_design_dare(b.summary, "ComputePatelTodaBounds");
+  EXPECT_FALSE(b.pi3 || b.pi4 || b.pi5 || b.pi6);
+  expect_design_dare(SearchErrorBox(design, ranges).summary, "SearchErrorBox");
+  // Terms that did not compute are not an input to the theorems.
+  ErrorNorms noise;
+  noise.R = 0.1;
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Theorem3Bound(ComputeDesignTerms(design), noise); }, "terms"));
+}
+
+// A gain that makes the filter unstable: no stationary error, and no bound, in both shapes.
+TEST(MismatchOutcomes, AnUnstableFilterIsReportedNotThrown) {
+  const ModelStep design =
+      MakeStep(MatrixXd::Constant(1, 1, 0.5), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1));
+  MismatchOptions o;
+  o.filter_gain = MatrixXd::Constant(1, 1, 5.0);  // (1 - 5) 0.5 = -2
+  const StationaryMismatch s = StationaryMismatchedCovariance(design, design, o);
+  EXPECT_EQ(s.summary.termination, Termination::kUnstable);
+  EXPECT_NE(s.summary.message.find("filter is unstable"), std::string::npos) << s.summary.message;
+  EXPECT_NEAR(s.filter_spectral_radius, 2.0, 1e-14);
+  const DesignTerms t = ComputeDesignTerms(design, o);
+  EXPECT_EQ(t.summary.termination, Termination::kUnstable);
+  ModelStep unstable_truth = design;
+  unstable_truth.A(0, 0) = 1.1;
+  const StationaryMismatch u = StationaryMismatchedCovariance(design, unstable_truth);
+  EXPECT_EQ(u.summary.termination, Termination::kUnstable);
+  EXPECT_NE(u.summary.message.find("true system is unstable"), std::string::npos) << u.summary.message;
 }
 
 }  // namespace

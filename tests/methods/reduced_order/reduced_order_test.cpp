@@ -108,7 +108,7 @@ TEST(ReducedOrderOneStep, PropagatedCovarianceEqualsEngineJointCovarianceOnTimeV
     const WeightSchedule L = RandomWeights(rng, ne, n, T);
     const ReducedOrderOneStep s = ComputeReducedOrderOneStep(model, L);
     PerformanceResult r;
-    const VectorXd J = WeightedCost(model, ReducedOrderOneStepAsLinearFilter(s, L), L, T, &r);
+    const VectorXd J = WeightedCost(model, ReducedOrderOneStepAsLinearFilter(s, L), L, ReducedOrderOptions{T}, &r);
     for (int k = 1; k <= T; ++k) {
       const MatrixXd E = RecursionErrorMoment(s.Q[k], s.Qhat[k], L.at(k), L.pinv_at(k));
       EXPECT_LT(RelativeDifference(E, r.error_moment[k]), 1e-9) << "seed " << seed << " k " << k;
@@ -154,8 +154,8 @@ TEST(ReducedOrderOneStep, FullOrderWithIdentityWeightIsTheKalmanPredictor) {
   const WeightSchedule L(MatrixXd::Identity(n, n));
   const ReducedOrderOneStep s = ComputeReducedOrderOneStep(model, L);
   const LinearFilter f = ReducedOrderOneStepAsLinearFilter(s, L);
-  const VectorXd J = WeightedCost(model, f, L, T);
-  const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
+  const VectorXd J = WeightedCost(model, f, L, ReducedOrderOptions{T});
+  const KalmanWeightedCosts kf = KalmanCosts(model, L, ReducedOrderOptions{T});
   for (int k = 1; k <= T; ++k) EXPECT_NEAR(J(k) / kf.predictor(k), 1.0, 1e-9) << k;
   // Same estimates on any measurement sequence.
   const TimeSeries y = rng.Gaussian(T, m);
@@ -176,8 +176,8 @@ TEST(ReducedOrderOneStep, SingularEarlyStepsUseThePseudoInverseAndNeverGiveNaN) 
   EXPECT_EQ(s.singular_steps.front(), 2);
   for (const auto& a : s.Ae) ASSERT_TRUE(a.allFinite());
   for (const auto& b : s.Be) ASSERT_TRUE(b.allFinite());
-  const VectorXd J = WeightedCost(model, ReducedOrderOneStepAsLinearFilter(s, L), L, T);
-  const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
+  const VectorXd J = WeightedCost(model, ReducedOrderOneStepAsLinearFilter(s, L), L, ReducedOrderOptions{T});
+  const KalmanWeightedCosts kf = KalmanCosts(model, L, ReducedOrderOptions{T});
   for (int k = 1; k <= T; ++k) {
     ASSERT_TRUE(std::isfinite(J(k)));
     EXPECT_GE(J(k) / kf.predictor(k), 1.0 - 1e-12) << k;
@@ -210,10 +210,11 @@ TEST(ReducedOrderTwoStep, PropagatedCovariancesEqualEngineAndGainsEqualLeastSqua
     const WeightSchedule L = RandomWeights(rng, ne, n, T);
     const ReducedOrderTwoStep s = ComputeReducedOrderTwoStep(model, L);
     PerformanceResult rda, rf;
-    const VectorXd Jda =
-        WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kDataAssimilation), L, T, &rda);
-    const VectorXd Jf = WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kForecast), L, T, &rf);
-    const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
+    const VectorXd Jda = WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kDataAssimilation),
+                                      L, ReducedOrderOptions{T}, &rda);
+    const VectorXd Jf = WeightedCost(model, ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kForecast), L,
+                                     ReducedOrderOptions{T}, &rf);
+    const KalmanWeightedCosts kf = KalmanCosts(model, L, ReducedOrderOptions{T});
     for (int k = 1; k <= T; ++k) {
       const MatrixXd Eda = RecursionErrorMoment(s.Qda[k], s.Qhatda[k], L.at(k), L.pinv_at(k));
       const MatrixXd Ef = RecursionErrorMoment(s.Qf[k], s.Qhatf[k], L.at(k), L.pinv_at(k));
@@ -257,8 +258,9 @@ TEST(ReducedOrderTwoStep, FullOrderWithIdentityWeightIsTheKalmanFilterAndPredict
   const ReducedOrderTwoStep s = ComputeReducedOrderTwoStep(model, L);
   const LinearFilter fda = ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kDataAssimilation);
   const LinearFilter ff = ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kForecast);
-  const VectorXd Jda = WeightedCost(model, fda, L, T), Jf = WeightedCost(model, ff, L, T);
-  const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
+  const VectorXd Jda = WeightedCost(model, fda, L, ReducedOrderOptions{T}),
+                 Jf = WeightedCost(model, ff, L, ReducedOrderOptions{T});
+  const KalmanWeightedCosts kf = KalmanCosts(model, L, ReducedOrderOptions{T});
   for (int k = 1; k <= T; ++k) {
     EXPECT_NEAR(Jda(k) / kf.filter(k), 1.0, 1e-9) << k;
     EXPECT_NEAR(Jf(k) / kf.predictor(k), 1.0, 1e-9) << k;
@@ -382,7 +384,7 @@ TEST(SubspaceOneStep, RecursionIsTheTrueErrorCovarianceOnlyInTriangularForm) {
     const Model model = TriangularPlant(rng, U, nr, m, T, triangular);
     const SubspaceOneStep s = ComputeSubspaceOneStep(model, U, nr, L);
     PerformanceResult r;
-    const VectorXd J = WeightedCost(model, SubspaceOneStepAsLinearFilter(s, U, nr), L, T, &r);
+    const VectorXd J = WeightedCost(model, SubspaceOneStepAsLinearFilter(s, U, nr), L, ReducedOrderOptions{T}, &r);
     double worst = 0.0;
     for (int k = 1; k <= T; ++k) {
       worst = std::max(worst, RelativeDifference(U * s.Q[k] * U.transpose(), r.error_moment[k]));
@@ -452,11 +454,12 @@ TEST(SubspaceEstimators, FullDimensionWithIdentityWeightIsTheKalmanFilterAndPred
   const Model model = RandomTimeVaryingModel(rng, n, m, T, rng.Gaussian(n, 1));
   const WeightSchedule L(MatrixXd::Identity(n, n));
   const MatrixXd I = MatrixXd::Identity(n, n);
-  const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
+  const KalmanWeightedCosts kf = KalmanCosts(model, L, ReducedOrderOptions{T});
   const SubspaceOneStep s1 = ComputeSubspaceOneStep(model, I, n, L);
   const SubspaceTwoStep s2 = ComputeSubspaceTwoStep(model, I, n, L);
-  const VectorXd J1 = WeightedCost(model, SubspaceOneStepAsLinearFilter(s1, I, n), L, T);
-  const VectorXd Jda = WeightedCost(model, SubspaceTwoStepAsLinearFilter(s2, I, n, TwoStepOutput::kDataAssimilation), L, T);
+  const VectorXd J1 = WeightedCost(model, SubspaceOneStepAsLinearFilter(s1, I, n), L, ReducedOrderOptions{T});
+  const VectorXd Jda = WeightedCost(model, SubspaceTwoStepAsLinearFilter(s2, I, n, TwoStepOutput::kDataAssimilation), L,
+                                    ReducedOrderOptions{T});
   for (int k = 1; k <= T; ++k) {
     EXPECT_NEAR(J1(k) / kf.predictor(k), 1.0, 1e-9) << k;
     EXPECT_NEAR(Jda(k) / kf.filter(k), 1.0, 1e-9) << k;
@@ -480,10 +483,11 @@ TEST(SubspaceTwoStep, RecursionEqualsEngineInTriangularFormAndRatiosAreAtLeastOn
   const WeightSchedule L = RandomWeights(rng, 3, n, T);
   const SubspaceTwoStep s = ComputeSubspaceTwoStep(model, U, nr, L);
   PerformanceResult rda, rf;
-  const VectorXd Jda =
-      WeightedCost(model, SubspaceTwoStepAsLinearFilter(s, U, nr, TwoStepOutput::kDataAssimilation), L, T, &rda);
-  const VectorXd Jf = WeightedCost(model, SubspaceTwoStepAsLinearFilter(s, U, nr, TwoStepOutput::kForecast), L, T, &rf);
-  const KalmanWeightedCosts kf = KalmanCosts(model, L, T);
+  const VectorXd Jda = WeightedCost(model, SubspaceTwoStepAsLinearFilter(s, U, nr, TwoStepOutput::kDataAssimilation), L,
+                                    ReducedOrderOptions{T}, &rda);
+  const VectorXd Jf = WeightedCost(model, SubspaceTwoStepAsLinearFilter(s, U, nr, TwoStepOutput::kForecast), L,
+                                   ReducedOrderOptions{T}, &rf);
+  const KalmanWeightedCosts kf = KalmanCosts(model, L, ReducedOrderOptions{T});
   for (int k = 1; k <= T; ++k) {
     EXPECT_LT(RelativeDifference(U * s.Qda[k] * U.transpose(), rda.error_moment[k]), 1e-9) << k;
     EXPECT_LT(RelativeDifference(U * s.Qf[k] * U.transpose(), rf.error_moment[k]), 1e-9) << k;
