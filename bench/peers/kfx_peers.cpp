@@ -181,7 +181,7 @@ int Lyap(const std::string& dir, int n, int reps) {
   int info = 0;
   for (int i = 0; i < reps; ++i) {
     double t0 = CpuSeconds();
-    Xk = kfx::SolveDiscreteLyapunov(A, Q);
+    Xk = kfx::SolveDiscreteLyapunov(A, Q).X;
     t_kfx.push_back(CpuSeconds() - t0);
     t0 = CpuSeconds();
     info = Sb03md(A, Q, &Xs);
