@@ -154,8 +154,7 @@ CoupledFilterSlice::CoupledFilterSlice(CoupledFilterKind kind, Index first, Inde
                 std::to_string(first));
   }
   if (c_ < 1 || P0_blocks.cols() % c_ != 0) {
-    throw Error("P0: expected c x (count c) packed blocks, got " + std::to_string(P0_blocks.rows()) + "x" +
-                std::to_string(P0_blocks.cols()));
+    throw Error("P0: expected c x (count c) packed blocks, got " + ShapeString(P0_blocks));
   }
   RequireVector("x0", x_, P0_blocks.cols());
   RequireFinite("x0", x_);
@@ -474,7 +473,7 @@ MatrixXd InlineMatrix(const std::string& path, const std::string& field, const j
     if (!x.is_number()) FailField(path, field, "expected numbers, got " + x.dump());
     return x.get<double>();
   };
-  const std::string want = "expected a " + std::to_string(rows) + "x" + std::to_string(cols) + " matrix";
+  const std::string want = "expected a " + ShapeString(rows, cols) + " matrix";
   if (v.is_number() && rows == 1 && cols == 1) {
     m(0, 0) = number(v);
   } else if (v.is_array() && !v.empty() && !v[0].is_array() && (rows == 1 || cols == 1) &&

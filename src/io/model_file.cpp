@@ -32,8 +32,6 @@ constexpr int kFormatVersion = 1;
 constexpr std::int64_t kMaxModelEntries = std::int64_t{1} << 30;
 constexpr std::int64_t kStepOverhead = 64;
 
-std::string ShapeOf(Eigen::Index rows, Eigen::Index cols) { return std::to_string(rows) + "x" + std::to_string(cols); }
-
 // A matrix-valued field: one matrix, or one per step (time-varying).
 struct MatrixField {
   bool present = false;
@@ -237,8 +235,8 @@ class ModelFileReader {
   void RequireFieldShape(const char* name, const MatrixField& f, Eigen::Index rows, Eigen::Index cols) const {
     for (std::size_t k = 0; k < f.values.size(); ++k) {
       if (f.values[k].rows() != rows || f.values[k].cols() != cols) {
-        FailField(name,
-                  StepLabel(f, k) + "expected a " + ShapeOf(rows, cols) + " matrix, got " + ShapeString(f.values[k]));
+        FailField(name, StepLabel(f, k) + "expected a " + ShapeString(rows, cols) + " matrix, got " +
+                            ShapeString(f.values[k]));
       }
     }
   }
