@@ -13,6 +13,7 @@
 #include <system_error>
 #include <vector>
 
+#include "io/io_internal.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/validation.hpp"
@@ -301,12 +302,6 @@ class ModelFileReader {
     }
   }
 
-  static std::string ShapeText(const std::vector<std::int64_t>& shape) {
-    std::string s = "(";
-    for (std::size_t i = 0; i < shape.size(); ++i) s += (i > 0 ? ", " : "") + std::to_string(shape[i]);
-    return s + (shape.size() == 1 ? ",)" : ")");
-  }
-
   MatrixField ReadMatrixField(const Json& root, const char* name, bool required, bool allow_time) const {
     MatrixField f;
     if (!root.contains(name)) {
@@ -325,8 +320,9 @@ class ModelFileReader {
         const auto rows = static_cast<Eigen::Index>(a.shape[rank - 2]);
         const auto cols = static_cast<Eigen::Index>(a.shape[rank - 1]);
         if (rank == 3 && (steps == 0 || steps > INT_MAX || rows == 0 || cols == 0)) {
-          FailField(name, "expected a time-varying field of shape (T, rows, cols) with 1 <= T <= " +
-                              std::to_string(INT_MAX) + " and non-empty matrices, got shape " + ShapeText(a.shape));
+          FailField(name,
+                    "expected a time-varying field of shape (T, rows, cols) with 1 <= T <= " + std::to_string(INT_MAX) +
+                        " and non-empty matrices, got shape " + detail::NpyShapeText(a.shape));
         }
         f.time_varying = rank == 3;
         const double* p = a.data.data();
@@ -339,7 +335,7 @@ class ModelFileReader {
       } else {
         FailField(name, std::string("expected a 2-D array") +
                             (allow_time ? " (or 3-D (T, rows, cols) for a time-varying field)" : "") + ", got shape " +
-                            ShapeText(a.shape) + " in " + v["npy"].get<std::string>());
+                            detail::NpyShapeText(a.shape) + " in " + v["npy"].get<std::string>());
       }
       return f;
     }
@@ -374,7 +370,7 @@ class ModelFileReader {
       const NpyArray a = ReadReference(v, name);
       const bool column = a.shape.size() == 2 && a.shape[1] == 1;
       if (a.shape.size() > 1 && !column) {
-        FailField(name, "expected a vector (a 1-D array), got shape " + ShapeText(a.shape));
+        FailField(name, "expected a vector (a 1-D array), got shape " + detail::NpyShapeText(a.shape));
       }
       return Eigen::Map<const Eigen::VectorXd>(a.data.data(), static_cast<Eigen::Index>(a.data.size()));
     }
