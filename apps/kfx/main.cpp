@@ -14,6 +14,7 @@
 #include "blockdiag.hpp"
 #include "cli_args.hpp"
 #include "kfx/error.hpp"
+#include "kfx/error_ranges_file.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/mismatch.hpp"

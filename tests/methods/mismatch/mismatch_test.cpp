@@ -392,7 +392,6 @@ TEST(MismatchInput, BadInputThrowsNamingTheArgument) {
   ErrorBoxSearchOptions so;
   so.step_tolerance = 2.0;
   ExpectErrorNaming([&] { SearchErrorBox(design, ErrorRanges(), MismatchOptions(), so); }, "step_tolerance");
-  ExpectErrorNaming([&] { LoadErrorRanges("/nonexistent/ranges.json", design); }, "ranges.json");
 }
 
 }  // namespace

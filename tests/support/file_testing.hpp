@@ -1,0 +1,54 @@
+#pragma once
+// Test helpers for the file readers: a fixture with its own temporary directory, and the check that a
+// reader's kfx::Error starts with the file's path and says what is expected.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "kfx/error.hpp"
+
+namespace kfx::testing {
+
+/// Runs `f` and expects a kfx::Error whose message starts with `prefix` (e.g. "<path>: ") and contains
+/// every text.
+inline void ExpectErrorMessage(const std::function<void()>& f, const std::string& prefix,
+                               const std::vector<std::string>& texts) {
+  try {
+    f();
+    ADD_FAILURE() << "expected kfx::Error containing '" << (texts.empty() ? prefix : texts.front()) << "'";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(prefix, 0), 0u) << what;
+    for (const std::string& t : texts) EXPECT_NE(what.find(t), std::string::npos) << what;
+  }
+}
+
+/// A fixture with an empty temporary directory of its own (per process and test), removed afterwards.
+class TempDirTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = std::filesystem::temp_directory_path() /
+           ("kfx_" + std::string(info->test_suite_name()) + "_" + std::to_string(::getpid()) + "_" + info->name());
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string Path(const std::string& name) const { return (dir_ / name).string(); }
+  /// Writes `text` to the file `name` in the directory; returns its path.
+  std::string Write(const std::string& name, const std::string& text) const {
+    const std::string path = Path(name);
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << text;
+    return path;
+  }
+
+  std::filesystem::path dir_;
+};
+
+}  // namespace kfx::testing
