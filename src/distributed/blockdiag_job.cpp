@@ -8,10 +8,10 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "io/json_matrix.hpp"
 #include "kfx/coupled_model_file.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
@@ -25,28 +25,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-using nlohmann::json;
+using json = detail::Json;
 
-[[noreturn]] void FailField(const std::string& path, const std::string& field, const std::string& what) {
-  throw Error(path + ": field '" + field + "': " + what);
-}
-
-json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open file for reading");
-  try {
-    return json::parse(in);
-  } catch (const json::exception& e) {
-    throw Error(path + ": not valid JSON (" + e.what() + ")");
-  }
-}
-
-Index PositiveField(const std::string& path, const json& j, const char* key, Index min) {
-  if (!j.contains(key) || !j[key].is_number_integer() || j[key].get<long long>() < min) {
-    FailField(path, key, "expected an integer >= " + std::to_string(min));
-  }
-  return j[key].get<Index>();
-}
+constexpr const char* kOutputFormat = "kfx-blockdiag-output";
 
 std::string SliceName(const std::string& what, Index first, Index end) {
   return what + "." + std::to_string(first) + "-" + std::to_string(end) + ".npy";
@@ -147,7 +128,7 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
       WriteNpyMatrix((dir / "coupling_cov.npy").string(), run.coupling_cov);
     }
     json meta;
-    meta["format"] = "kfx-blockdiag-output";
+    meta["format"] = kOutputFormat;
     meta["filter"] = ToString(job.kind);
     meta["n"] = h.n, meta["c"] = h.c, meta["d"] = h.d, meta["r"] = h.r;
     meta["steps"] = sum.steps;
@@ -172,12 +153,10 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
 TimeSeries ReadBlockDiagStates(const std::string& out_dir) {
   const fs::path dir(out_dir);
   const std::string path = (dir / "metadata.json").string();
-  const json meta = ReadJson(path);
-  if (!meta.is_object() || meta.value("format", "") != "kfx-blockdiag-output") {
-    throw Error(path + ": expected \"format\": \"kfx-blockdiag-output\"");
-  }
-  const Index n = PositiveField(path, meta, "n", 1), c = PositiveField(path, meta, "c", 1);
-  const Index T = PositiveField(path, meta, "steps", 0);
+  const json meta = detail::ReadJsonObject(path, kOutputFormat);
+  detail::CheckJsonFormat(meta, path, kOutputFormat, /*required=*/true);
+  const Index n = detail::JsonIndex(meta, path, "n", 1), c = detail::JsonIndex(meta, path, "c", 1);
+  const Index T = detail::JsonIndex(meta, path, "steps", 0);
   TimeSeries x(T + 1, n * c);
   for (const json& sl : meta.at("slices")) {
     const Index f = sl.at("first").get<Index>(), m = sl.at("count").get<Index>();
