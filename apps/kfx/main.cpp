@@ -14,6 +14,7 @@
 #include "blockdiag.hpp"
 #include "cli_args.hpp"
 #include "kfx/error.hpp"
+#include "kfx/error_ranges_file.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/mismatch.hpp"
@@ -21,6 +22,7 @@
 #include "kfx/reproduce.hpp"
 #include "kfx/riccati.hpp"
 #include "kfx/simulation.hpp"
+#include "kfx/validation.hpp"
 #include "progress.hpp"
 
 namespace fs = std::filesystem;
@@ -53,9 +55,9 @@ std::string Fmt(const MatrixXd& m) {
 
 void PrintMatrix(const std::string& name, const MatrixXd& m, Eigen::Index max_size = 4) {
   if (m.rows() <= max_size && m.cols() <= max_size) {
-    std::cout << "  " << name << " (" << m.rows() << "x" << m.cols() << "):\n" << Fmt(m) << "\n";
+    std::cout << "  " << name << " (" << ShapeString(m) << "):\n" << Fmt(m) << "\n";
   } else {
-    std::cout << "  " << name << " (" << m.rows() << "x" << m.cols() << "), |.|_F = " << m.norm();
+    std::cout << "  " << name << " (" << ShapeString(m) << "), |.|_F = " << m.norm();
     if (m.rows() == m.cols()) {
       std::cout << ", trace " << m.trace() << ", diagonal:\n" << Fmt(m.diagonal().transpose()) << "\n";
     } else {

@@ -152,26 +152,11 @@ std::vector<double> MonteCarloPartialSums(const Model& truth, const LinearFilter
 MonteCarloResult MonteCarloFromSums(const Model& truth, const LinearFilter& filter, const MonteCarloOptions& options,
                                     const std::vector<double>& sums);
 
-// ---- Slice input and output ------------------------------------------------------------------------
-
-/// A coupled model file (docs/formats.md, "Coupled model"): JSON with n, c, d, r and the matrices F,
-/// H, V, R, G, U, m0, P0, each either inline (the same for every subsystem) or {"npy": "file.npy"} with
-/// a leading dimension n (one block per subsystem; read by offset, only the slice's part).
-struct CoupledModelHeader {
-  Eigen::Index n = 0, c = 0, d = 0, r = 0;
-  Eigen::MatrixXd U;  ///< r x r, always inline
-};
-/// @throws kfx::Error naming the file and the field.
-CoupledModelHeader ReadCoupledModelHeader(const std::string& path);
-/// The slice [first, first + count) of a coupled model file, reading only that part of per-subsystem .npy
-/// files. @throws kfx::Error naming the file and the field.
-CoupledSystem LoadCoupledModelSlice(const std::string& path, Eigen::Index first, Eigen::Index count);
-/// Writes a coupled model file (per-subsystem fields as .npy files <stem>.<field>.npy beside it).
-void SaveCoupledModel(const std::string& path, const CoupledSystem& system);
+// ---- `kfx blockdiag` ------------------------------------------------------------------------------
 
 /// `kfx blockdiag`: the job and what a rank does with it.
 struct BlockDiagJob {
-  std::string model;    ///< coupled model file
+  std::string model;    ///< coupled model file (include/kfx/coupled_model_file.hpp)
   std::string data;     ///< measurements .npy, shape (T, n d); each rank reads its columns
   std::string out_dir;  ///< output directory (must exist or be creatable)
   CoupledFilterKind kind = CoupledFilterKind::kBlockDiagonal;  ///< or kBanded

@@ -295,8 +295,4 @@ ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges
                               const MismatchOptions& options = MismatchOptions(),
                               const ErrorBoxSearchOptions& search = ErrorBoxSearchOptions());
 
-/// Reads an error-ranges file (JSON, docs/formats.md "Error ranges") for `design`.
-/// @throws kfx::Error naming the file and field.
-ErrorRanges LoadErrorRanges(const std::string& path, const ModelStep& design);
-
 }  // namespace kfx

@@ -13,8 +13,10 @@ inline constexpr double kSymmetryTolerance = 1e-10;
 /// Default relative tolerance of the semidefiniteness check (see RequirePositiveSemidefinite).
 inline constexpr double kDefinitenessTolerance = 1e-12;
 
-/// "3x4" for a matrix.
+/// "3x4" for a matrix: the one way kfx writes a matrix shape in messages.
 std::string ShapeString(const Eigen::Ref<const Eigen::MatrixXd>& m);
+/// "3x4" for a rows x cols shape (no matrix needed, e.g. an expected shape).
+std::string ShapeString(Eigen::Index rows, Eigen::Index cols);
 
 /// Throws unless every entry is finite.
 void RequireFinite(const std::string& name, const Eigen::Ref<const Eigen::MatrixXd>& m);

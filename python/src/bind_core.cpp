@@ -165,8 +165,7 @@ class PyKalmanFilter {
   // FilterPy's tuple (means, covariances, means_p, covariances_p), time-major, k = 1..T.
   py::tuple batch_filter(const TimeSeries& zs, bool update_state) {
     if (zs.cols() != m_)
-      throw Error("zs: expected shape (T, " + std::to_string(m_) + "), got " + std::to_string(zs.rows()) + "x" +
-                  std::to_string(zs.cols()));
+      throw Error("zs: expected shape (T, " + std::to_string(m_) + "), got " + ShapeString(zs.rows(), zs.cols()));
     FilterRunOptions opt;
     opt.filter = options_;
     FilterRun run = RunFilter(AsModel(), zs, opt);
@@ -185,8 +184,7 @@ class PyKalmanFilter {
   py::tuple rts_smoother(const TimeSeries& Xs, const py::array& Ps_array) const {
     const Eigen::Index T = Xs.rows();
     if (Xs.cols() != n_)
-      throw Error("Xs: expected shape (T, " + std::to_string(n_) + "), got " + std::to_string(T) + "x" +
-                  std::to_string(Xs.cols()));
+      throw Error("Xs: expected shape (T, " + std::to_string(n_) + "), got " + ShapeString(T, Xs.cols()));
     std::vector<Eigen::MatrixXd> Ps = Unstack(Ps_array, "Ps");
     if (static_cast<Eigen::Index>(Ps.size()) != T || (T > 0 && (Ps[0].rows() != n_ || Ps[0].cols() != n_)))
       throw Error("Ps: expected shape (" + std::to_string(T) + ", " + std::to_string(n_) + ", " + std::to_string(n_) +

@@ -15,8 +15,10 @@ void AssertFail(const char* expr, const char* file, int line) {
 }
 }  // namespace detail
 
-std::string ShapeString(const Eigen::Ref<const Eigen::MatrixXd>& m) {
-  return std::to_string(m.rows()) + "x" + std::to_string(m.cols());
+std::string ShapeString(const Eigen::Ref<const Eigen::MatrixXd>& m) { return ShapeString(m.rows(), m.cols()); }
+
+std::string ShapeString(Eigen::Index rows, Eigen::Index cols) {
+  return std::to_string(rows) + "x" + std::to_string(cols);
 }
 
 void RequireFinite(const std::string& name, const Eigen::Ref<const Eigen::MatrixXd>& m) {
@@ -37,7 +39,7 @@ void RequireShape(const std::string& name, const Eigen::Ref<const Eigen::MatrixX
     std::ostringstream os;
     os << name << ": expected ";
     if (rows >= 0 && cols >= 0) {
-      os << "a " << rows << "x" << cols << " matrix";
+      os << "a " << ShapeString(rows, cols) << " matrix";
     } else if (rows >= 0) {
       os << "a matrix with " << rows << (rows == 1 ? " row" : " rows");
     } else {

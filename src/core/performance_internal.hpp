@@ -1,5 +1,5 @@
 #pragma once
-// For the distributed Monte Carlo (src/distributed.cpp): the evaluation checks of performance.cpp.
+// For the distributed Monte Carlo (src/distributed/monte_carlo_sums.cpp): the evaluation checks of performance.cpp.
 #include "kfx/performance.hpp"
 
 namespace kfx::detail {

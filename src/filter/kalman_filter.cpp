@@ -523,8 +523,7 @@ FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOpti
   const Eigen::Index n = model.state_dim(), m = model.meas_dim();
   if (y.cols() != m) {
     throw Error("y: expected " + std::to_string(m) + (m == 1 ? " column" : " columns") +
-                " (the model's measurement dimension), got " + std::to_string(y.rows()) + "x" +
-                std::to_string(y.cols()));
+                " (the model's measurement dimension), got " + ShapeString(y.rows(), y.cols()));
   }
   const int T = model.ResolveSteps(static_cast<int>(y.rows()), "y (rows)");
   FilterRun run;

@@ -10,7 +10,6 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -18,6 +17,7 @@
 #include <system_error>
 #include <vector>
 
+#include "io/io_internal.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 
@@ -27,10 +27,7 @@ namespace {
 
 [[noreturn]] void Fail(const std::string& path, const std::string& what) { throw Error(path + ": " + what); }
 
-std::string ErrnoDetail() {
-  const int e = errno;
-  return e != 0 ? std::string(" (") + std::strerror(e) + ")" : std::string();
-}
+using detail::ErrnoDetail;
 
 enum class Format { kNpy, kCsv };
 

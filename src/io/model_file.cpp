@@ -1,18 +1,15 @@
 // The kfx model file: JSON with matrices inline or in .npy files beside it.
 // Format: docs/formats.md, "Model files". Every error names the file and the field.
-#include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <climits>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
-#include <system_error>
 #include <vector>
 
+#include "io/io_internal.hpp"
+#include "io/json_matrix.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/validation.hpp"
@@ -32,8 +29,6 @@ constexpr int kFormatVersion = 1;
 constexpr std::int64_t kMaxModelEntries = std::int64_t{1} << 30;
 constexpr std::int64_t kStepOverhead = 64;
 
-std::string ShapeOf(Eigen::Index rows, Eigen::Index cols) { return std::to_string(rows) + "x" + std::to_string(cols); }
-
 // A matrix-valued field: one matrix, or one per step (time-varying).
 struct MatrixField {
   bool present = false;
@@ -47,10 +42,10 @@ struct MatrixField {
 
 class ModelFileReader {
  public:
-  explicit ModelFileReader(const std::string& path) : path_(path), dir_(fs::path(path).parent_path()) {}
+  explicit ModelFileReader(const std::string& path) : path_(path) {}
 
   Model Load() {
-    const Json root = ParseFile();
+    const Json root = detail::ReadJsonObject(path_, kFormatName);
     CheckHeader(root);
 
     MatrixField A = ReadMatrixField(root, "A", true, true);
@@ -110,7 +105,7 @@ class ModelFileReader {
     if (root.contains("horizon")) {
       const Json& h = root["horizon"];
       if (!h.is_number_integer() || h.get<long long>() < 1 || h.get<long long>() > INT_MAX) {
-        FailField("horizon", "expected a positive integer number of steps, got " + Brief(h));
+        FailField("horizon", "expected a positive integer number of steps, got " + detail::JsonBrief(h));
       }
       const long long horizon = h.get<long long>();
       if (steps >= 0 && horizon != steps) {
@@ -177,136 +172,36 @@ class ModelFileReader {
     return what;
   }
 
-  static std::string Brief(const Json& v) {
-    std::string text = v.dump();
-    if (text.size() > 40) text = text.substr(0, 40) + "...";
-    return std::string(v.type_name()) + " " + text;
-  }
   static std::string StepLabel(const MatrixField& f, std::size_t k) {
     return f.time_varying ? "step " + std::to_string(k + 1) + ": " : std::string();
   }
 
-  Json ParseFile() const {
-    errno = 0;
-    std::error_code ec;
-    if (fs::is_directory(path_, ec)) Fail("is a directory, expected a model file");
-    std::ifstream in(path_, std::ios::binary);
-    if (!in) {
-      const int e = errno;
-      Fail(std::string("cannot open model file for reading") +
-           (e != 0 ? std::string(" (") + std::strerror(e) + ")" : ""));
-    }
-    std::ostringstream text;
-    text << in.rdbuf();
-    if (in.bad()) Fail("cannot read model file");
-    if (text.str().find_first_not_of(" \t\r\n") == std::string::npos) Fail("empty file, expected a JSON model");
-    Json root;
-    try {
-      root = Json::parse(text.str());
-    } catch (const Json::exception& e) {
-      // "[json.exception.parse_error.101] parse error at line 3, column 7: ..." -> drop the tag.
-      std::string what = e.what();
-      const std::size_t tag_end = what.find("] ");
-      if (what.compare(0, 1, "[") == 0 && tag_end != std::string::npos) what = what.substr(tag_end + 2);
-      Fail("invalid JSON: " + what);
-    }
-    if (!root.is_object())
-      Fail("expected a JSON object {\"format\": \"kfx-model\", ...}, got a " + std::string(root.type_name()));
-    return root;
-  }
-
   void CheckHeader(const Json& root) const {
-    if (root.contains("format")) {
-      const Json& f = root["format"];
-      if (!f.is_string() || f.get<std::string>() != kFormatName) {
-        FailField("format", std::string("expected \"") + kFormatName + "\", got " + Brief(f));
-      }
-    }
-    if (root.contains("version")) {
-      const Json& v = root["version"];
-      if (!v.is_number() || v.get<double>() != kFormatVersion) {
-        FailField("version", "unsupported version " + v.dump() + " (this kfx reads version " +
-                                 std::to_string(kFormatVersion) + ")");
-      }
-    }
+    detail::CheckJsonFormat(root, path_, kFormatName, /*required=*/false);
+    detail::CheckJsonVersion(root, path_, kFormatVersion);
     for (const char* key : {"name", "description"}) {
-      if (root.contains(key) && !root[key].is_string()) FailField(key, "expected a string, got " + Brief(root[key]));
+      if (root.contains(key) && !root[key].is_string()) {
+        FailField(key, "expected a string, got " + detail::JsonBrief(root[key]));
+      }
     }
   }
 
   void RequireFieldShape(const char* name, const MatrixField& f, Eigen::Index rows, Eigen::Index cols) const {
     for (std::size_t k = 0; k < f.values.size(); ++k) {
       if (f.values[k].rows() != rows || f.values[k].cols() != cols) {
-        FailField(name,
-                  StepLabel(f, k) + "expected a " + ShapeOf(rows, cols) + " matrix, got " + ShapeString(f.values[k]));
+        FailField(name, StepLabel(f, k) + "expected a " + ShapeString(rows, cols) + " matrix, got " +
+                            ShapeString(f.values[k]));
       }
     }
-  }
-
-  // Nesting depth of a JSON value: 0 for a number, 1 + depth of the first element for a list.
-  static int Depth(const Json& v) {
-    int depth = 0;
-    const Json* p = &v;
-    while (p->is_array() && !p->empty() && depth < 8) {
-      ++depth;
-      p = &p->front();
-    }
-    return p->is_array() ? depth + 1 : depth;
-  }
-
-  static double Number(const Json& v, bool* ok) {
-    *ok = v.is_number();
-    return *ok ? v.get<double>() : 0.0;
-  }
-
-  // A matrix written as a number (1x1) or a list of rows.
-  Eigen::MatrixXd MatrixFromJson(const Json& v, const std::string& name, const std::string& where) const {
-    bool ok = false;
-    if (v.is_number()) return Eigen::MatrixXd::Constant(1, 1, Number(v, &ok));
-    if (!v.is_array() || v.empty()) FailField(name, where + "expected a matrix as a list of rows, got " + Brief(v));
-    const auto rows = static_cast<Eigen::Index>(v.size());
-    if (!v.front().is_array())
-      FailField(name, where + "expected a list of rows (e.g. [[1, 0]]), got a list of numbers");
-    const auto cols = static_cast<Eigen::Index>(v.front().size());
-    Eigen::MatrixXd m(rows, cols);
-    for (Eigen::Index i = 0; i < rows; ++i) {
-      const Json& row = v[static_cast<std::size_t>(i)];
-      const std::string row_label = "row " + std::to_string(i + 1);
-      if (!row.is_array())
-        FailField(name, where + "expected a list of numbers in " + row_label + ", got " + Brief(row));
-      if (static_cast<Eigen::Index>(row.size()) != cols) {
-        FailField(name, where + row_label + " has " + std::to_string(row.size()) + " entries, expected " +
-                            std::to_string(cols) + " (as row 1)");
-      }
-      for (Eigen::Index j = 0; j < cols; ++j) {
-        const Json& x = row[static_cast<std::size_t>(j)];
-        m(i, j) = Number(x, &ok);
-        if (!ok) {
-          FailField(name, where + "expected a number in " + row_label + ", column " + std::to_string(j + 1) + ", got " +
-                              Brief(x));
-        }
-      }
-    }
-    return m;
   }
 
   NpyArray ReadReference(const Json& v, const std::string& name) const {
-    if (v.size() != 1 || !v.contains("npy") || !v["npy"].is_string()) {
-      FailField(name, "expected {\"npy\": \"file.npy\"}, got " + Brief(v));
-    }
-    fs::path file = v["npy"].get<std::string>();
-    if (file.is_relative()) file = dir_ / file;
+    const std::string file = detail::JsonNpyReference(v, {path_, name, ""});
     try {
-      return ReadNpy(file.string());
+      return ReadNpy(file);
     } catch (const Error& e) {
       FailField(name, e.what());
     }
-  }
-
-  static std::string ShapeText(const std::vector<std::int64_t>& shape) {
-    std::string s = "(";
-    for (std::size_t i = 0; i < shape.size(); ++i) s += (i > 0 ? ", " : "") + std::to_string(shape[i]);
-    return s + (shape.size() == 1 ? ",)" : ")");
   }
 
   MatrixField ReadMatrixField(const Json& root, const char* name, bool required, bool allow_time) const {
@@ -327,8 +222,9 @@ class ModelFileReader {
         const auto rows = static_cast<Eigen::Index>(a.shape[rank - 2]);
         const auto cols = static_cast<Eigen::Index>(a.shape[rank - 1]);
         if (rank == 3 && (steps == 0 || steps > INT_MAX || rows == 0 || cols == 0)) {
-          FailField(name, "expected a time-varying field of shape (T, rows, cols) with 1 <= T <= " +
-                              std::to_string(INT_MAX) + " and non-empty matrices, got shape " + ShapeText(a.shape));
+          FailField(name,
+                    "expected a time-varying field of shape (T, rows, cols) with 1 <= T <= " + std::to_string(INT_MAX) +
+                        " and non-empty matrices, got shape " + detail::NpyShapeText(a.shape));
         }
         f.time_varying = rank == 3;
         const double* p = a.data.data();
@@ -341,25 +237,23 @@ class ModelFileReader {
       } else {
         FailField(name, std::string("expected a 2-D array") +
                             (allow_time ? " (or 3-D (T, rows, cols) for a time-varying field)" : "") + ", got shape " +
-                            ShapeText(a.shape) + " in " + v["npy"].get<std::string>());
+                            detail::NpyShapeText(a.shape) + " in " + v["npy"].get<std::string>());
       }
       return f;
     }
-    const int depth = Depth(v);
+    const int depth = detail::JsonListDepth(v);
     if (depth == 3 && allow_time) {
       f.time_varying = true;
       for (std::size_t k = 0; k < v.size(); ++k) {
         const std::string where = "step " + std::to_string(k + 1) + ": ";
-        f.values.push_back(MatrixFromJson(v[k], name, where));
+        f.values.push_back(detail::JsonMatrix(v[k], {path_, name, where}));
         if (k > 0 && (f.values[k].rows() != f.values[0].rows() || f.values[k].cols() != f.values[0].cols())) {
           FailField(name, where + "expected a " + ShapeString(f.values[0]) + " matrix (as step 1), got " +
                               ShapeString(f.values[k]));
         }
       }
-    } else if (depth == 0 || depth == 2) {
-      f.values.push_back(MatrixFromJson(v, name, ""));
-    } else if (depth == 1) {
-      FailField(name, "expected a matrix as a list of rows (e.g. [[1, 0]] for one row), got a flat list");
+    } else if (depth <= 2) {
+      f.values.push_back(detail::JsonMatrix(v, {path_, name, ""}));
     } else {
       FailField(name,
                 std::string("expected a matrix (a list of rows)") +
@@ -376,21 +270,11 @@ class ModelFileReader {
       const NpyArray a = ReadReference(v, name);
       const bool column = a.shape.size() == 2 && a.shape[1] == 1;
       if (a.shape.size() > 1 && !column) {
-        FailField(name, "expected a vector (a 1-D array), got shape " + ShapeText(a.shape));
+        FailField(name, "expected a vector (a 1-D array), got shape " + detail::NpyShapeText(a.shape));
       }
       return Eigen::Map<const Eigen::VectorXd>(a.data.data(), static_cast<Eigen::Index>(a.data.size()));
     }
-    bool ok = false;
-    if (v.is_number()) return Eigen::VectorXd::Constant(1, Number(v, &ok));
-    if (!v.is_array()) FailField(name, "expected a list of numbers, got " + Brief(v));
-    Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-    for (std::size_t i = 0; i < v.size(); ++i) {
-      // Entries may be numbers, or one-element rows (a column written as [[1], [2]]).
-      const Json& e = v[i].is_array() && v[i].size() == 1 ? v[i].front() : v[i];
-      x(static_cast<Eigen::Index>(i)) = Number(e, &ok);
-      if (!ok) FailField(name, "expected a number in entry " + std::to_string(i + 1) + ", got " + Brief(v[i]));
-    }
-    return x;
+    return detail::JsonVector(v, {path_, name, ""});
   }
 
   static ModelStep MakeStepAt(const MatrixField& A, const MatrixField& C, const MatrixField& Q, const MatrixField& R,
@@ -405,7 +289,6 @@ class ModelFileReader {
   }
 
   std::string path_;
-  fs::path dir_;
 };
 
 // ----- Writing ----------------------------------------------------------------------------------

@@ -3,14 +3,10 @@
 //
 // Safety: nothing is allocated from a size found in a header before it has been checked against the
 // size of the file, so a corrupt or hostile header cannot make the reader allocate unbounded memory.
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -18,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "io/io_internal.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 
@@ -35,10 +32,8 @@ constexpr std::size_t kChunkBytes = std::size_t{1} << 20;
 
 [[noreturn]] void Fail(const std::string& path, const std::string& what) { throw Error(path + ": " + what); }
 
-std::string OpenErrorDetail() {
-  const int e = errno;
-  return e != 0 ? std::string(" (") + std::strerror(e) + ")" : std::string();
-}
+using detail::ErrnoDetail;
+using detail::NpyShapeText;
 
 // ----- The header: a Python dict literal ---------------------------------------------------------
 
@@ -314,16 +309,6 @@ double DecodeElement(const unsigned char* p, const DType& t) {
   return 0.0;
 }
 
-std::string ShapeText(const std::vector<std::int64_t>& shape) {
-  std::string s = "(";
-  for (std::size_t i = 0; i < shape.size(); ++i) {
-    if (i > 0) s += ", ";
-    s += std::to_string(shape[i]);
-  }
-  if (shape.size() == 1) s += ",";
-  return s + ")";
-}
-
 // Number of elements of `shape`, or -1 if it does not fit in int64 with `item_size` bytes each.
 std::int64_t ElementCount(const std::vector<std::int64_t>& shape, std::int64_t item_size) {
   const std::int64_t max_count = std::numeric_limits<std::int64_t>::max() / item_size;
@@ -365,7 +350,7 @@ std::vector<double> FortranToC(const std::vector<double>& f, const std::vector<s
 
 void WriteAll(std::ofstream& out, const std::string& path, const char* data, std::size_t size) {
   out.write(data, static_cast<std::streamsize>(size));
-  if (!out) Fail(path, "cannot write file" + OpenErrorDetail());
+  if (!out) Fail(path, "cannot write file" + ErrnoDetail());
 }
 
 // The parsed header of an open .npy file; `in` is left at the start of the data.
@@ -441,18 +426,18 @@ NpyHeader ReadNpyHeader(std::ifstream& in, const std::string& path) {
     array.shape.push_back(d.integer);
   }
   for (std::int64_t d : array.shape) {
-    if (d < 0) Fail(path, "malformed .npy header: negative dimension in shape " + ShapeText(array.shape));
+    if (d < 0) Fail(path, "malformed .npy header: negative dimension in shape " + NpyShapeText(array.shape));
   }
   const auto item_size = static_cast<std::int64_t>(dtype.size);
   const std::int64_t count = ElementCount(array.shape, item_size);
-  if (count < 0) Fail(path, "malformed .npy header: shape " + ShapeText(array.shape) + " is too large");
+  if (count < 0) Fail(path, "malformed .npy header: shape " + NpyShapeText(array.shape) + " is too large");
 
   // Check the data length before allocating anything of the header's size.
   const std::uint64_t expected_bytes = static_cast<std::uint64_t>(count) * dtype.size;
   const std::uint64_t data_bytes = after_preamble - header_length;
   if (data_bytes != expected_bytes) {
     Fail(path, "expected " + std::to_string(expected_bytes) + " bytes of data, got " + std::to_string(data_bytes) +
-                   " (shape " + ShapeText(array.shape) + ", dtype '" + field("descr").text + "')");
+                   " (shape " + NpyShapeText(array.shape) + ", dtype '" + field("descr").text + "')");
   }
   if (static_cast<std::uint64_t>(count) > std::numeric_limits<std::size_t>::max() / sizeof(double)) {
     Fail(path, "array too large for this platform");
@@ -478,44 +463,11 @@ void ReadElements(std::ifstream& in, const std::string& path, const DType& dtype
 std::ifstream OpenNpy(const std::string& path) {
   errno = 0;
   std::ifstream in(path, std::ios::binary);
-  if (!in) Fail(path, "cannot open file for reading" + OpenErrorDetail());
+  if (!in) Fail(path, "cannot open file for reading" + ErrnoDetail());
   return in;
 }
 
 }  // namespace
-
-AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)) {
-  static std::atomic<unsigned long> counter{0};
-  temp_ = path_ + ".tmp-" + std::to_string(static_cast<long>(::getpid())) + "-" + std::to_string(counter++);
-  errno = 0;
-  out_.open(temp_, std::ios::binary | std::ios::trunc);
-  if (!out_) Fail(path_, "cannot open file for writing" + OpenErrorDetail());
-}
-
-AtomicOutputFile::~AtomicOutputFile() {
-  if (committed_) return;
-  if (out_.is_open()) out_.close();
-  std::remove(temp_.c_str());
-}
-
-void AtomicOutputFile::Commit() {
-  errno = 0;
-  out_.close();
-  if (!out_) {
-    const std::string detail = OpenErrorDetail();
-    std::remove(temp_.c_str());
-    committed_ = true;
-    Fail(path_, "cannot write file" + detail);
-  }
-  errno = 0;
-  if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
-    const std::string detail = OpenErrorDetail();
-    std::remove(temp_.c_str());
-    committed_ = true;
-    Fail(path_, "cannot rename the written file into place" + detail);
-  }
-  committed_ = true;
-}
 
 NpyArray ReadNpy(const std::string& path) {
   std::ifstream in = OpenNpy(path);
@@ -533,12 +485,12 @@ NpyArray ReadNpySlice(const std::string& path, int axis, std::int64_t start, std
   const NpyHeader h = ReadNpyHeader(in, path);
   const int ndim = static_cast<int>(h.shape.size());
   if (axis < 0 || axis >= ndim) {
-    Fail(path, "cannot slice axis " + std::to_string(axis) + " of an array of shape " + ShapeText(h.shape));
+    Fail(path, "cannot slice axis " + std::to_string(axis) + " of an array of shape " + NpyShapeText(h.shape));
   }
   const std::int64_t len = h.shape[static_cast<size_t>(axis)];
   if (start < 0 || count < 0 || start > len || count > len - start) {
     Fail(path, "slice [" + std::to_string(start) + ", " + std::to_string(start + count) + ") of axis " +
-                   std::to_string(axis) + " is outside the shape " + ShapeText(h.shape));
+                   std::to_string(axis) + " is outside the shape " + NpyShapeText(h.shape));
   }
   // In file order the array has shape h.shape (C order) or its reverse (Fortran order): the slice is
   // `outer` runs of count * inner contiguous elements, `len * inner` apart.
@@ -569,20 +521,20 @@ NpyArray ReadNpySlice(const std::string& path, int axis, std::int64_t start, std
 
 void WriteNpy(const std::string& path, const std::vector<std::int64_t>& shape, const double* data) {
   for (std::int64_t d : shape) {
-    if (d < 0) Fail(path, "shape: expected non-negative dimensions, got " + ShapeText(shape));
+    if (d < 0) Fail(path, "shape: expected non-negative dimensions, got " + NpyShapeText(shape));
   }
   if (shape.size() > static_cast<std::size_t>(kMaxDimensions)) {
     Fail(path, "shape: expected at most " + std::to_string(kMaxDimensions) + " dimensions, got " +
                    std::to_string(shape.size()));
   }
   const std::int64_t count = ElementCount(shape, static_cast<std::int64_t>(sizeof(double)));
-  if (count < 0) Fail(path, "shape: " + ShapeText(shape) + " is too large");
+  if (count < 0) Fail(path, "shape: " + NpyShapeText(shape) + " is too large");
   if (count > 0 && data == nullptr) Fail(path, "data: expected " + std::to_string(count) + " values, got null");
 
   // The header exactly as numpy.save writes it (numpy/lib/format.py, _write_array_header): the dict
   // with sorted keys, room for the first axis to grow to 21 digits, then spaces up to a multiple of
   // 64 bytes and a final '\n'.
-  std::string header = "{'descr': '<f8', 'fortran_order': False, 'shape': " + ShapeText(shape) + ", }";
+  std::string header = "{'descr': '<f8', 'fortran_order': False, 'shape': " + NpyShapeText(shape) + ", }";
   if (!shape.empty()) {
     const std::size_t digits = std::to_string(shape[0]).size();
     header.append(kGrowthAxisMaxDigits > digits ? kGrowthAxisMaxDigits - digits : 0, ' ');
@@ -622,7 +574,7 @@ void WriteNpy(const std::string& path, const std::vector<std::int64_t>& shape, c
 Eigen::MatrixXd ReadNpyMatrix(const std::string& path) {
   const NpyArray a = ReadNpy(path);
   if (a.shape.size() != 1 && a.shape.size() != 2) {
-    Fail(path, "expected a 1-D or 2-D array, got shape " + ShapeText(a.shape));
+    Fail(path, "expected a 1-D or 2-D array, got shape " + NpyShapeText(a.shape));
   }
   const Eigen::Index rows = a.shape[0];
   const Eigen::Index cols = a.shape.size() == 2 ? a.shape[1] : 1;

@@ -14,6 +14,7 @@
 #include <mutex>
 #include <thread>
 
+#include "kfx/coupled_model_file.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/simulation.hpp"

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "kfx/block_diagonal.hpp"
+#include "kfx/coupled_model_file.hpp"
 #include "kfx/distributed.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"

@@ -36,12 +36,10 @@ using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxSmall
 // Subsystems per chunk: the chunk's r-wide temporaries stay in cache (about 8 nb r doubles).
 constexpr Index kChunk = 256;
 
-std::string Dims(Index a, Index b) { return std::to_string(a) + "x" + std::to_string(b); }
-
 void RequireStepShapes(const CoupledStep& s, const std::string& label) {
   const Index c = s.F.rows();
   if (c == 0 || s.F.cols() % c != 0) {
-    throw Error(label + "F: expected c x (n c) packed blocks with c >= 1, got " + Dims(s.F.rows(), s.F.cols()));
+    throw Error(label + "F: expected c x (n c) packed blocks with c >= 1, got " + ShapeString(s.F.rows(), s.F.cols()));
   }
   const Index n = s.F.cols() / c, d = s.H.rows(), r = s.G.cols();
   RequireShape(label + "H", s.H, d, n * c);
@@ -524,7 +522,7 @@ int CoupledSystem::ResolveSteps(int steps) const {
 MatrixXd BlockDiagonalToDense(const MatrixXd& blocks, Index block_cols) {
   if (block_cols < 1 || blocks.cols() % block_cols != 0) {
     throw Error("blocks: expected a x (n b) packed blocks with b = " + std::to_string(block_cols) + ", got " +
-                Dims(blocks.rows(), blocks.cols()));
+                ShapeString(blocks.rows(), blocks.cols()));
   }
   const Index a = blocks.rows(), n = blocks.cols() / block_cols;
   MatrixXd dense = MatrixXd::Zero(n * a, n * block_cols);
@@ -537,7 +535,7 @@ MatrixXd BlockDiagonalToDense(const MatrixXd& blocks, Index block_cols) {
 MatrixXd DiagonalBlocks(const MatrixXd& M, Index a) {
   if (a < 1 || M.rows() != M.cols() || M.rows() % a != 0) {
     throw Error("M: expected a square matrix of size a multiple of " + std::to_string(a) + ", got " +
-                Dims(M.rows(), M.cols()));
+                ShapeString(M.rows(), M.cols()));
   }
   const Index n = M.rows() / a;
   MatrixXd blocks(a, n * a);
@@ -548,7 +546,7 @@ MatrixXd DiagonalBlocks(const MatrixXd& M, Index a) {
 VectorXd BlockDiagonalApply(const MatrixXd& blocks, Index block_cols, const VectorXd& x) {
   if (block_cols < 1 || blocks.cols() % block_cols != 0) {
     throw Error("blocks: expected packed blocks " + std::to_string(block_cols) + " wide, got " +
-                Dims(blocks.rows(), blocks.cols()));
+                ShapeString(blocks.rows(), blocks.cols()));
   }
   RequireVector("x", x, blocks.cols());
   const Index n = blocks.cols() / block_cols;
@@ -780,7 +778,7 @@ const char* ToString(CoupledFilterKind kind) {
 CoupledFilter::CoupledFilter(CoupledFilterKind kind, VectorXd x0, const MatrixXd& P0_blocks)
     : kind_(kind), c_(P0_blocks.rows()), x_(std::move(x0)) {
   if (c_ < 1 || P0_blocks.cols() % c_ != 0) {
-    throw Error("P0: expected c x (n c) packed blocks, got " + Dims(P0_blocks.rows(), P0_blocks.cols()));
+    throw Error("P0: expected c x (n c) packed blocks, got " + ShapeString(P0_blocks.rows(), P0_blocks.cols()));
   }
   RequireVector("x0", x_, P0_blocks.cols());
   RequireFinite("x0", x_);

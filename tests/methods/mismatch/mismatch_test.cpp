@@ -394,7 +394,6 @@ TEST(MismatchInput, BadInputThrowsNamingTheArgument) {
   so.step_tolerance = 2.0;
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { SearchErrorBox(design, ErrorRanges(), MismatchOptions(), so); },
                                          "step_tolerance"));
-  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { LoadErrorRanges("/nonexistent/ranges.json", design); }, "ranges.json"));
 }
 
 // One rule for one event: when the design's DARE fails, every computation that needs the design's gain

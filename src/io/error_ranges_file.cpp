@@ -1,0 +1,33 @@
+// The error-ranges file (include/kfx/error_ranges_file.hpp; format: docs/formats.md, "Error ranges").
+#include "kfx/error_ranges_file.hpp"
+
+#include <string>
+
+#include "io/json_matrix.hpp"
+#include "kfx/error.hpp"
+#include "kfx/mismatch.hpp"
+
+namespace kfx {
+
+ErrorRanges LoadErrorRanges(const std::string& path, const ModelStep& design) {
+  const detail::Json j = detail::ReadJsonObject(path, "kfx-error-ranges");
+  detail::CheckJsonFormat(j, path, "kfx-error-ranges", /*required=*/false);
+  detail::CheckJsonVersion(j, path, 1);
+  ErrorRanges r;
+  Eigen::MatrixXd* fields[4] = {&r.A, &r.C, &r.Q, &r.R};
+  const char* names[4] = {"A", "C", "Q", "R"};
+  for (int k = 0; k < 4; ++k) {
+    if (j.contains(names[k])) *fields[k] = detail::JsonMatrix(j[names[k]], {path, names[k], ""});
+  }
+  if (r.A.size() + r.C.size() + r.Q.size() + r.R.size() == 0) {
+    throw Error(path + ": expected at least one of the fields 'A', 'C', 'Q', 'R'");
+  }
+  try {
+    ValidateErrorRanges(design, r);
+  } catch (const Error& e) {
+    throw Error(path + ": " + e.what());
+  }
+  return r;
+}
+
+}  // namespace kfx
