@@ -144,7 +144,6 @@ PaperReport ReproduceBernstein(const ReproduceOptions& options) {
   PaperReport report;
   report.paper = "bernstein";
   report.title = "Chandrasekar, Kim, Bernstein: finite-horizon reduced-order estimators (001)";
-  report.source = "001_1f60d5bfbc0b8ad7.txt";
   const std::string note = "the paper shows curves only (Figs. 2-3); ratio to the full-order Kalman cost";
   int done = 0;
   const int total = 12;
