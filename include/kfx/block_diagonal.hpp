@@ -1,6 +1,8 @@
 #pragma once
 // Many subsystems coupled by a low-dimensional stochastic input, and the block-diagonal filter
-// (Pogorelyuk, Rowley, Kasdin, paper 004; notation map in docs/notation.md, equation map in
+// (paper 004: L. Pogorelyuk, C. W. Rowley, N. J. Kasdin, "An efficient approximation of the Kalman
+// filter for multiple systems coupled via low-dimensional stochastic input", arXiv:1911.10443; full
+// reference in docs/papers/README.md; notation map in docs/notation.md, equation map in
 // docs/papers/004.md). In kfx's indexing (first measurement y_1), for subsystems i = 1..n:
 //
 //   x_k^(i) = F_k^(i) x_{k-1}^(i) + v_k^(i) + G_k^(i) u_k,   v_k^(i) ~ N(0, V_k^(i))   (c states)

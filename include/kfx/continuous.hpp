@@ -1,6 +1,8 @@
 #pragma once
-// Continuous-time linear systems with integrated observations (paper 003, Aalto; notation:
-// docs/notation.md, docs/papers/003.md):
+// Continuous-time linear systems with integrated observations (paper 003: A. Aalto, "Convergence of
+// discrete time Kalman filter estimate to continuous time estimate", International Journal of Control,
+// arXiv:1408.1275; full reference in docs/papers/README.md; notation: docs/notation.md,
+// docs/papers/003.md):
 //
 //   dz = A z dt + B du,   dy = C z dt + dw,   z(0) ~ N(m0, P0),
 //

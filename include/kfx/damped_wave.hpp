@@ -1,6 +1,7 @@
 #pragma once
-// The damped wave equation of paper 000, Sec. 5, discretized by P1 finite elements on nested uniform
-// meshes of [0, 1] (Dirichlet) and implicit Euler in time:
+// The damped wave equation of paper 000 (Aalto, IMA J. Math. Control Inf.; docs/papers/README.md),
+// Sec. 5, discretized by P1 finite elements on nested uniform meshes of [0, 1] (Dirichlet) and
+// implicit Euler in time:
 //   z_tt = -eps z_t + z_xx + sum_j b_j(x) u_j,   y = (<c_1, z>, <c_2, z>) + v
 // with the reading of the issue (docs/papers/000.md): state x = (z, v) in fine nodal coordinates
 // (2 N_f numbers), M_aug = blkdiag(I, M), A_cont = [[0, I], [-K, -eps M]],

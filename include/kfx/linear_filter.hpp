@@ -1,5 +1,5 @@
 #pragma once
-// Every filter in kfx is a linear recursion (../shared/notes/exact-performance.md):
+// Every filter in kfx is a linear recursion (docs/exact-performance.md):
 //   z_k = Phi_k z_{k-1} + K_k y_k,   estimate of x_k = O_k z_k,   k = 1, 2, ...,  z_0 given,
 // where z_k (dimension n_z) is the filter's own state. The offline part of a method computes the
 // schedule (Phi_k, K_k, O_k); the online part is RunLinearFilter. The exact-performance engine

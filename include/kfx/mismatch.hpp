@@ -1,8 +1,8 @@
 #pragma once
 // Filters built on a wrong model: the exact true error and the Patel-Toda bounds (paper 002,
 // R. Patel, M. Toda, "Modeling error analysis of stationary linear discrete-time filters", NASA TM
-// X-73,225, 1977; corrections to the printed equations in docs/papers/002.md, symbols mapped in
-// docs/notation.md).
+// X-73,225, NASA Ames Research Center, February 1977; docs/papers/README.md; corrections to the printed
+// equations in docs/papers/002.md, symbols mapped in docs/notation.md).
 //
 // 002's system and filter, in kfx's notation (002's H is kfx's C, 002's G Q G^T is kfx's Q):
 //   true:    x_k = A x_{k-1} + G w_k,  y_k = C x_k + v_k,   w ~ (0, Q), v ~ (0, R)

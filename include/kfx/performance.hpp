@@ -1,5 +1,5 @@
 #pragma once
-// The exact-performance engine (../shared/notes/exact-performance.md): the true mean-square error of
+// The exact-performance engine (mathematics in docs/exact-performance.md): the true mean-square error of
 // any linear filter z_k = Phi_k z_{k-1} + K_k y_k, estimate O_k z_k, run on any true model
 // x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k. The joint second moments of (x_k, z_k) obey
 //   [x_k]   [ A_k          0    ] [x_{k-1}]   [ I        0  ] [w_k]

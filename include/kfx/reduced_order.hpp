@@ -1,7 +1,7 @@
 #pragma once
 // Finite-horizon optimal reduced-order filters and subspace estimators with oblique projectors
-// (paper 001: J. Chandrasekar, I. S. Kim, D. S. Bernstein; corrections to the printed equations in
-// docs/papers/001.md, symbols in docs/notation.md).
+// (paper 001: J. Chandrasekar, I. S. Kim, D. S. Bernstein, title unconfirmed, see docs/papers/README.md;
+// corrections to the printed equations in docs/papers/001.md, symbols in docs/notation.md).
 //
 // Time indexing is kfx's (model.hpp): x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k, k >= 1, the first
 // measurement is y_1. The weight L_k (n_e x n, full row rank) selects what is estimated at time k:

@@ -1,5 +1,6 @@
 #pragma once
-// How fast the sampled Kalman filter converges to the Kalman-Bucy filter (paper 003, Aalto):
+// How fast the sampled Kalman filter converges to the Kalman-Bucy filter (paper 003: Aalto, Int. J. Control,
+// arXiv:1408.1275; docs/papers/README.md):
 //   err(n) = E|z_{T,n} - z(T)|^2 = tr P_{T,n} - tr P_c(T)
 // (z_{T,n} = E[z(T) | y(t_1..t_n)] is E[z(T) | F_c] conditioned on the coarser sigma algebra, so
 // z(T) - zhat(T) is orthogonal to zhat(T) - z_{T,n}: Pythagoras; checked in the tests against the

@@ -1,5 +1,6 @@
 #pragma once
-// A chain of masses connected by springs and dampers (paper 001, Fig. 1, Secs. V-VI):
+// A chain of masses connected by springs and dampers (paper 001, Chandrasekar, Kim, Bernstein;
+// docs/papers/README.md; Fig. 1, Secs. V-VI):
 //   wall --k_0,c_0-- m_1 --k_1,c_1-- m_2 -- ... -- m_N --k_N,c_N-- wall
 // Element i (0..N) joins mass i and mass i + 1 (mass 0 and mass N + 1 are the walls). A free end
 // drops its end element. With q the positions, M q'' + D q' + K q = 0, K and D tridiagonal:

@@ -1,6 +1,7 @@
 #pragma once
 // The subspace-optimal (reduced-order) filter of paper 000 (A. Aalto, "Spatial discretization error
-// in Kalman filtering for discrete-time infinite dimensional systems"): Algorithm 2.3, the error
+// in Kalman filtering for discrete-time infinite dimensional systems", IMA Journal of Mathematical
+// Control and Information, arXiv:1406.7160; full reference in docs/papers/README.md): Algorithm 2.3, the error
 // covariance RDE (20) with the load term M_k (21), the Sec. 6.1 approximation and the bounds of
 // Theorems 4.1, 4.2 and Remark 4.3. Symbols mapped in docs/notation.md, corrections to the printed
 // formulas in docs/papers/000.md.

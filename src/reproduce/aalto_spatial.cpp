@@ -1,6 +1,8 @@
 // `kfx reproduce aalto-spatial`: paper 000 (Aalto), Sec. 5 and 6.1 — Table 1 (methods F, A, C), the
 // Sec. 6.1 approximation, the spectral radii, Fig. 1 (right) and the bounds of Sec. 4, for the damped
 // wave equation with the issue's reading of the unstated details (docs/papers/000.md).
+// Paper 000: A. Aalto, "Spatial discretization error in Kalman filtering for discrete-time infinite
+// dimensional systems", IMA J. Math. Control Inf., arXiv:1406.7160 (docs/papers/README.md).
 #include <chrono>
 #include <cmath>
 #include <fstream>

@@ -3,6 +3,8 @@
 // tr P_c(T), the fitted rate and bound / err at n = 1024 (Theorem 1 for B = 0, Theorem 2 as
 // stated otherwise), plus Example 1 (wave equation, rough and smooth initial state).
 // Readings and corrections: docs/papers/003.md.
+// Paper 003: A. Aalto, "Convergence of discrete time Kalman filter estimate to continuous time
+// estimate", Int. J. Control, arXiv:1408.1275 (docs/papers/README.md).
 #include <cmath>
 #include <filesystem>
 #include <fstream>

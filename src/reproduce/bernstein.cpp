@@ -1,6 +1,8 @@
 // `kfx reproduce bernstein`: Chandrasekar, Kim, Bernstein (001), Secs. V-VI: cost ratios of the
 // reduced-order and subspace estimators to the full-order Kalman filter/predictor on the spring-
 // mass-dashpot chains. Settings (unstated in the paper) and what reproduces: docs/papers/001.md.
+// Paper 001: J. Chandrasekar, I. S. Kim, D. S. Bernstein, finite-horizon optimal reduced-order
+// estimators for time-varying systems (title unconfirmed; docs/papers/README.md).
 //
 // Time indexing: 001 measures its x_0 (covariance P0) with y_0. kfx's first measurement is y_1 of
 // x_1 = A_1 x_0 + w_1, so the model's step 1 is the identity without noise (x_1 = x_0 ~ N(0, P0))
@@ -137,7 +139,6 @@ PaperReport ReproduceBernstein(const ReproduceOptions& options) {
   PaperReport report;
   report.paper = "bernstein";
   report.title = "Chandrasekar, Kim, Bernstein: finite-horizon reduced-order estimators (001)";
-  report.source = "001_1f60d5bfbc0b8ad7.txt";
   const std::string note = "the paper shows curves only (Figs. 2-3); ratio to the full-order Kalman cost";
   int done = 0;
   const int total = 12;

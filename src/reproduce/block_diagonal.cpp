@@ -2,6 +2,9 @@
 // identical-subsystem reduction up to n = 65536, the critical beta, and a synthetic analogue of the
 // Sec. 3.2 coronagraph speckle-drift example (full, block-diagonal and banded EKFs).
 // docs/papers/004.md describes every item and what reproduces.
+// Paper 004: L. Pogorelyuk, C. W. Rowley, N. J. Kasdin, "An efficient approximation of the Kalman
+// filter for multiple systems coupled via low-dimensional stochastic input", arXiv:1911.10443
+// (docs/papers/README.md).
 #include <algorithm>
 #include <array>
 #include <chrono>

@@ -1,6 +1,8 @@
 // `kfx reproduce patel-toda`: the twelve numbers of Sec. 6 of paper 002 (Patel, Toda 1977) — the
 // bounds of Theorems 3-6 and, in parentheses in the paper, the least upper bound of tr P and the
 // greatest lower bound of tr P_F over the error box. Corrections and readings: docs/papers/002.md.
+// Paper 002: R. Patel, M. Toda, "Modeling error analysis of stationary linear discrete-time filters",
+// NASA TM X-73,225, NASA Ames Research Center, February 1977 (docs/papers/README.md).
 #include <cmath>
 #include <sstream>
 

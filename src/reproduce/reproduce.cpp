@@ -17,7 +17,7 @@ using Reproducer = PaperReport (*)(const ReproduceOptions&);
 struct PaperInfo {
   const char* id;
   const char* title;
-  const char* source;
+  const char* reference;  // the paper's full reference (docs/papers/README.md)
   // The paper's reproduction, defined in its own src/reproduce_<paper>.cpp (declared in
   // src/reproduce_papers.hpp). Explicit, not self-registering: a static library drops objects
   // that nothing references.
@@ -25,16 +25,27 @@ struct PaperInfo {
 };
 
 const PaperInfo kPapers[] = {
-    {"aalto-spatial", "Aalto: spatial discretization error in Kalman filtering (000)", "000_2fdf8a9810478b94.txt",
+    {"aalto-spatial", "Aalto: spatial discretization error in Kalman filtering (000)",
+     "A. Aalto, \"Spatial discretization error in Kalman filtering for discrete-time infinite dimensional "
+     "systems\", IMA Journal of Mathematical Control and Information (Oxford University Press); preprint "
+     "arXiv:1406.7160",
      detail::ReproduceAaltoSpatial},
     {"bernstein", "Chandrasekar, Kim, Bernstein: finite-horizon reduced-order estimators (001)",
-     "001_1f60d5bfbc0b8ad7.txt", detail::ReproduceBernstein},
-    {"patel-toda", "Patel, Toda: modeling error analysis of stationary filters (002)", "002_3fbfce7a479149cb.txt",
+     "J. Chandrasekar, I. S. Kim, D. S. Bernstein (University of Michigan), finite-horizon optimal reduced-order "
+     "estimators for discrete-time time-varying systems (title, venue and year unconfirmed)",
+     detail::ReproduceBernstein},
+    {"patel-toda", "Patel, Toda: modeling error analysis of stationary filters (002)",
+     "R. Patel, M. Toda, \"Modeling error analysis of stationary linear discrete-time filters\", NASA Technical "
+     "Memorandum TM X-73,225, NASA Ames Research Center, Moffett Field, California, February 1977",
      detail::ReproducePatelToda},
     {"aalto-temporal", "Aalto: convergence of discrete to continuous-time Kalman filter (003)",
-     "003_cdbc1acc1716879d.txt", detail::ReproduceAaltoTemporal},
+     "A. Aalto, \"Convergence of discrete time Kalman filter estimate to continuous time estimate\", "
+     "International Journal of Control (accepted for publication); preprint arXiv:1408.1275",
+     detail::ReproduceAaltoTemporal},
     {"block-diagonal", "Pogorelyuk, Rowley, Kasdin: block-diagonal Kalman filter approximation (004)",
-     "004_e32b16110c2ac44a.txt", detail::ReproduceBlockDiagonal},
+     "L. Pogorelyuk, C. W. Rowley, N. J. Kasdin, \"An efficient approximation of the Kalman filter for multiple "
+     "systems coupled via low-dimensional stochastic input\", preprint arXiv:1911.10443",
+     detail::ReproduceBlockDiagonal},
 };
 
 const PaperInfo* FindPaper(const std::string& id) {
@@ -83,7 +94,7 @@ PaperReport Reproduce(const std::string& paper, const ReproduceOptions& options)
   if (info->reproduce) report = info->reproduce(options);
   report.paper = info->id;
   report.title = info->title;
-  report.source = info->source;
+  report.reference = info->reference;
   if (!info->reproduce) {
     report.notes.push_back("no reproduction items for this paper in this version of kfx (its issue is open)");
   }

@@ -38,7 +38,7 @@ struct ReproduceOptions {
 struct PaperReport {
   std::string paper;  ///< one of PaperIds()
   std::string title;
-  std::string source;  ///< ../shared/papers file
+  std::string reference;  ///< the paper's full reference (as in docs/papers/README.md)
   std::vector<ReproduceItem> items;
   std::vector<std::string> figures;  ///< paths written
   std::vector<std::string> notes;    ///< free text shown under the table
