@@ -1,6 +1,6 @@
 // `kfx blockdiag`: thin; the work is kfx::RunBlockDiagJob (include/kfx/distributed.hpp). With MPI, the
 // command (not the library) initializes MPI and passes MPI_COMM_WORLD to kfx::mpi::Communicator.
-#include "blockdiag.hpp"
+#include "commands.hpp"
 
 #include <algorithm>
 #include <cstdio>
