@@ -1,3 +1,5 @@
+// The kfx command line parsed with CLI11 into the argument structs of cli_args.hpp; free of the library
+// (its headers and its link), so that fuzz/fuzz_cli.cpp can compile this file alone.
 #include "cli_args.hpp"
 
 #include <CLI/CLI.hpp>

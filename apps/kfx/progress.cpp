@@ -1,3 +1,4 @@
+// A progress line on stderr for the long computations of the subcommands, shown only when stderr is a terminal.
 #include "progress.hpp"
 
 #include <unistd.h>
