@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <iostream>
 
+#include "kfx/block_diagonal.hpp"
 #include "kfx/distributed.hpp"
+#include "kfx/enum_text.hpp"
 #include "kfx/error.hpp"
 #ifdef KFX_WITH_MPI
 #include "kfx/mpi.hpp"
@@ -21,7 +23,7 @@ BlockDiagJob MakeJob(const BlockDiagArgs& a) {
   job.model = a.model;
   job.data = a.data;
   job.out_dir = a.out;
-  job.kind = a.filter == "banded" ? CoupledFilterKind::kBanded : CoupledFilterKind::kBlockDiagonal;
+  job.kind = ParseEnum<CoupledFilterKind>("--filter", a.filter);
   job.granule = a.granule;
   job.steps = a.steps;
   return job;

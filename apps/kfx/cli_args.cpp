@@ -11,6 +11,16 @@
 
 namespace kfx::cli {
 
+const std::vector<std::string>& FilterFormChoices() {
+  static const std::vector<std::string> choices = {"joseph", "standard", "sqrt", "ud", "information"};
+  return choices;
+}
+
+const std::vector<std::string>& BlockDiagFilterChoices() {
+  static const std::vector<std::string> choices = {"block-diagonal", "banded"};
+  return choices;
+}
+
 struct CommandLineParser::Impl {
   CLI::App app{"kfx: Kalman filtering for large and infinite-dimensional linear systems"};
   CommandLine args;  // the options write here
@@ -32,7 +42,6 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
   c_sim->add_option("-o,--out", sim.out, "Output directory (x.npy: (T+1, n), y.npy: (T, m))")->required();
   c_sim->add_flag("--csv", sim.csv, "Write CSV instead of .npy");
 
-  const std::vector<std::string> forms = {"joseph", "standard", "sqrt", "ud", "information"};
   auto add_filter = [&](const char* name, const char* help, FilterArgs& a) {
     auto* c = app.add_subcommand(name, help);
     c->add_option("model", a.model, "Model file")->required();
@@ -42,7 +51,7 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
     c->add_option("--form", a.form,
                   "Covariance form: joseph (default), standard, sqrt (square root), ud (Bierman-Thornton), "
                   "information (docs/robustness.md)")
-        ->check(CLI::IsMember(forms));
+        ->check(CLI::IsMember(FilterFormChoices()));
     c->add_flag("--health", a.health,
                 "Monitor symmetry, definiteness and innovation consistency (NIS); reported in summary.json");
     return c;
@@ -91,7 +100,7 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
   c_bd->add_option("-o,--out", bd.out, "Output directory: metadata.json, x_filt/P_filt per slice, coupling_*")
       ->required();
   c_bd->add_option("--filter", bd.filter, "block-diagonal (default) or banded")
-      ->check(CLI::IsMember({"block-diagonal", "banded"}));
+      ->check(CLI::IsMember(BlockDiagFilterChoices()));
   c_bd->add_option("--granule", bd.granule, "Subsystems per partition unit (default 1024)")
       ->check(CLI::Range(1L, 1000000000L));
   c_bd->add_option("--steps", bd.steps, "Number of steps (default: all rows of the data)")

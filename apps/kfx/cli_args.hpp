@@ -17,7 +17,7 @@ struct SimulateArgs {
 struct FilterArgs {
   std::string model, data, out;
   bool csv = false;
-  std::string form = "joseph";  ///< joseph, standard, sqrt, ud, information
+  std::string form = "joseph";  ///< one of FilterFormChoices()
   bool health = false;          ///< monitor health (summary.json "health")
 };
 
@@ -39,7 +39,7 @@ struct ReproduceArgs {
 };
 
 struct BlockDiagArgs {
-  std::string model, data, out, filter = "block-diagonal";
+  std::string model, data, out, filter = "block-diagonal";  ///< filter: one of BlockDiagFilterChoices()
   long granule = 1024;
   int steps = -1;
 };
@@ -53,6 +53,14 @@ struct CommandLine {
   ReproduceArgs rep;
   BlockDiagArgs bd;
 };
+
+/// The values of `--form` (filter, smooth): joseph, standard, sqrt, ud, information. Listed here, not derived
+/// from the library's enum names, so that this file needs no library; tests/cli/cli_options_test.cpp checks
+/// them against kfx::cli::FilterFormNames() (filter_form.hpp).
+const std::vector<std::string>& FilterFormChoices();
+/// The values of `blockdiag --filter`: block-diagonal, banded, the names (ToString) of the two
+/// kfx::CoupledFilterKind values the distributed job runs (checked by the same test).
+const std::vector<std::string>& BlockDiagFilterChoices();
 
 /// The parser of the kfx command line (CLI11), built once and reusable: each Parse() starts from
 /// the default arguments.

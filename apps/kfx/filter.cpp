@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "filter_form.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "output.hpp"
@@ -22,10 +23,7 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
   FilterRunOptions opt;
   opt.store_covariances = smooth;
   opt.monitor_health = a.health;
-  if (a.form == "standard") opt.filter.update_form = CovarianceUpdateForm::kStandard;
-  if (a.form == "sqrt") opt.filter.form = FilterForm::kSquareRoot;
-  if (a.form == "ud") opt.filter.form = FilterForm::kUD;
-  if (a.form == "information") opt.filter.form = FilterForm::kInformation;
+  opt.filter = ParseFilterForm(a.form);
   opt.progress = progress.callback();
   const FilterRun run = RunFilter(model, y, opt);
   progress.Finish();
