@@ -1,9 +1,9 @@
 #pragma once
-// Shared helpers of the two translation units of the kfx._core module (bind_core.cpp: models,
-// filters, solvers, the exact-performance engine, reproduce; bind_papers.cpp: the paper methods).
-// Conventions (docs/python.md): numpy float64 in and out, time-major sequences (T, n), stacks of
-// matrices as (K, rows, cols); kfx::Error -> kfx.Error (a ValueError), kfx::NumericalError ->
-// kfx.NumericalError (an ArithmeticError).
+// The declarations shared by the translation units of the kfx._core module: the helpers (Stack,
+// Unstack, MatrixList, OrEmpty; defined in bindings.cpp) and one Bind function per header group,
+// which module.cpp calls in layer order. Conventions (docs/python.md): numpy float64 in and out,
+// time-major sequences (T, n), stacks of matrices as (K, rows, cols); kfx::Error -> kfx.Error (a
+// ValueError), kfx::NumericalError -> kfx.NumericalError (an ArithmeticError).
 #include <pybind11/eigen.h>
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
@@ -28,6 +28,17 @@ std::vector<Eigen::MatrixXd> MatrixList(const py::object& seq, const std::string
 /// An empty matrix for None.
 inline Eigen::MatrixXd OrEmpty(const std::optional<Eigen::MatrixXd>& m) { return m ? *m : Eigen::MatrixXd(); }
 
-void BindPapers(py::module_& m);
+// One per header group, each in bind_<group>.cpp (module.cpp registers the exceptions and kfx.Summary).
+void BindRiccati(py::module_& m);               // riccati.hpp
+void BindModel(py::module_& m);                 // model.hpp, simulation.hpp, discretize.hpp
+void BindPerformance(py::module_& m);           // linear_filter.hpp, performance.hpp
+void BindKalmanFilter(py::module_& m);          // kalman_filter.hpp: functions
+void BindFilterPyKalmanFilter(py::module_& m);  // kalman_filter.hpp: the class kfx.KalmanFilter
+void BindSubspaceFilter(py::module_& m);        // 000: subspace_filter.hpp, damped_wave.hpp
+void BindReducedOrder(py::module_& m);          // 001: reduced_order.hpp, spring_mass_chain.hpp
+void BindMismatch(py::module_& m);              // 002: mismatch.hpp
+void BindContinuous(py::module_& m);            // 003: continuous.hpp, sampling_convergence.hpp
+void BindBlockDiagonal(py::module_& m);         // 004: block_diagonal.hpp
+void BindReproduce(py::module_& m);             // reproduce.hpp
 
 }  // namespace kfx::python
