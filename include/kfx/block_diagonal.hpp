@@ -260,7 +260,7 @@ struct CoupledFilterOptions {
   /// Number of steps T: RunCoupledFilter runs min(T, rows of y) (negative: all rows of y);
   /// CoupledFilterAsLinearFilter runs T (negative: the system's horizon).
   int steps = -1;
-  ProgressCallback progress;
+  ProgressCallback progress{};
 };
 
 /// Runs a filter over measurements y ((T, n d), row k-1 = y_k). @throws kfx::Error on shapes.
@@ -287,7 +287,7 @@ struct SteadyStateOptions {
   int max_iterations = 100000;  ///< range >= 1
   /// Stop when |P_{k|k} - P_{k-1|k-1}|_F <= tolerance |P_{k|k}|_F; range (0, 1e-2].
   double tolerance = 1e-13;
-  ProgressCallback progress;
+  ProgressCallback progress{};
   bool IsValid(std::string* error) const;
 };
 

@@ -110,13 +110,13 @@ class KalmanFilter {
 };
 
 struct FilterRunOptions {
-  KalmanFilterOptions filter;
+  KalmanFilterOptions filter{};
   /// Keep every P_{k|k-1}, P_{k|k} (needed by the smoother; n^2 (2T + 2) doubles).
   bool store_covariances = true;
   /// Check symmetry, definiteness (eigenvalues, Cholesky) of P_{k|k} and the NIS at every step
   /// (O(n^3) per step) and report them in FilterRun::health.
   bool monitor_health = false;
-  ProgressCallback progress;
+  ProgressCallback progress{};
   /// Steady-state fast path (time-invariant models only; 0 = off, the default): once a full step
   /// changes P_{k|k} by at most this, relative in the Frobenius norm, the gain, S_k and the
   /// covariances are frozen and later steps update only the mean, O(n^2 + n m) instead of O(n^3).
@@ -165,8 +165,8 @@ struct KalmanSchedule {
 };
 struct KalmanScheduleOptions {
   int steps = -1;  ///< T (negative: the model's horizon)
-  KalmanFilterOptions filter;
-  ProgressCallback progress;
+  KalmanFilterOptions filter{};
+  ProgressCallback progress{};
 };
 /// @throws kfx::Error on invalid options or steps beyond the horizon; kfx::NumericalError (a recursion)
 ///         when a step's covariance cannot be computed.

@@ -57,7 +57,7 @@ ModelingErrors ModelingErrorsBetween(const ModelStep& design, const ModelStep& t
 struct MismatchOptions {
   /// The filter gain K_M (n x m). Empty: the steady-state Kalman filter gain of the design step
   /// (SolveFilterDare). 002's bounds hold for any gain (remark after Theorem 4).
-  Eigen::MatrixXd filter_gain;
+  Eigen::MatrixXd filter_gain{};
   bool IsValid(std::string* error) const;
 };
 

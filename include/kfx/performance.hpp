@@ -26,10 +26,10 @@ struct PerformanceOptions {
   /// Number of steps T (negative: the shorter horizon of model and filter; error if both unbounded).
   int steps = -1;
   /// n x n symmetric PSD weight W of the weighted MSE (e.g. a Sobolev Gram matrix); empty = I.
-  Eigen::MatrixXd weight;
+  Eigen::MatrixXd weight{};
   /// Keep E[e_k e_k^T] for every k (n^2 (T+1) doubles).
   bool store_error_moments = true;
-  ProgressCallback progress;
+  ProgressCallback progress{};
   bool IsValid(std::string* error) const;
 };
 
@@ -59,7 +59,7 @@ struct EnumValues<StationaryMethod> {
 
 struct StationaryPerformanceOptions {
   /// n x n symmetric PSD weight W of the weighted MSE (empty = I), as in PerformanceOptions.
-  Eigen::MatrixXd weight;
+  Eigen::MatrixXd weight{};
   bool IsValid(std::string* error) const;
 };
 
@@ -91,9 +91,9 @@ struct MonteCarloOptions {
   int runs = 1000;                   ///< number of independent runs, >= 2
   std::uint64_t seed = 1;            ///< run i uses Rng::StreamSeed(seed, i)
   int steps = -1;                    ///< as in PerformanceOptions
-  Eigen::MatrixXd weight;            ///< as in PerformanceOptions
+  Eigen::MatrixXd weight{};          ///< as in PerformanceOptions
   bool store_error_moments = false;  ///< average e_k e_k^T over runs
-  ProgressCallback progress;
+  ProgressCallback progress{};
   bool IsValid(std::string* error) const;
 };
 

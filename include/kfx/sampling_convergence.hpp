@@ -52,7 +52,7 @@ struct ConvergencePoint {
 struct ConvergenceStudyOptions {
   std::vector<int> n_values = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
   int rate_min_n = 16;  ///< the rate is fitted over n >= rate_min_n
-  ProgressCallback progress;
+  ProgressCallback progress{};
 };
 
 struct ConvergenceStudy {

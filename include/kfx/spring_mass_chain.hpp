@@ -15,9 +15,9 @@
 namespace kfx {
 
 struct SpringMassChainOptions {
-  Eigen::VectorXd masses;     ///< N > 0 positive masses m_1..m_N
-  Eigen::VectorXd stiffness;  ///< N + 1 spring constants k_0..k_N (>= 0); end ones ignored when free
-  Eigen::VectorXd damping;    ///< N + 1 damper constants c_0..c_N (>= 0); end ones ignored when free
+  Eigen::VectorXd masses{};     ///< N > 0 positive masses m_1..m_N
+  Eigen::VectorXd stiffness{};  ///< N + 1 spring constants k_0..k_N (>= 0); end ones ignored when free
+  Eigen::VectorXd damping{};    ///< N + 1 damper constants c_0..c_N (>= 0); end ones ignored when free
   bool left_fixed = true;
   bool right_fixed = true;
   double dt = 0.1;     ///< sampling step (> 0) of the zero-order hold

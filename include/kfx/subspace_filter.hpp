@@ -92,7 +92,7 @@ struct SubspaceFilterOptions {
   /// and no N x N product is formed per step: the cost per step is one application of A to an N x n
   /// block plus O(N n (n + m)) (P_k is then formed only at the end unless stored).
   bool stationary_prior = false;
-  ProgressCallback progress;
+  ProgressCallback progress{};
   bool IsValid(std::string* error) const;
 };
 
