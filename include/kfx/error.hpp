@@ -1,5 +1,5 @@
 #pragma once
-// Errors and internal assertions (STYLE.md, three error tiers):
+// Errors and internal assertions (three error tiers, docs/architecture.md "Errors and outcomes"):
 //  1. bad input            -> throw kfx::Error (message names the argument and what was expected);
 //  2. numerical outcomes   -> a status in the algorithm's Summary;
 //  3. internal invariants  -> KFX_ASSERT (a bug in kfx, not in the caller's input).
