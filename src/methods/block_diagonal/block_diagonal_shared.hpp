@@ -1,0 +1,26 @@
+#pragma once
+// Private helpers shared by the files of the block-diagonal method (004): the shape checks of a coupled
+// step and raw access to packed blocks. (The range-based passes that the distributed filter calls are
+// declared in block_diagonal_internal.hpp.)
+#include <Eigen/Dense>
+#include <string>
+
+#include "kfx/block_diagonal.hpp"
+
+namespace kfx::detail {
+
+/// F packed c x (n c) with c >= 1, and H, V, R, G, U of the same n, c and of d >= 1, r (coupled_model.cpp).
+/// @throws kfx::Error naming the matrix at fault, after label.
+void RequireStepShapes(const CoupledStep& s, const std::string& label);
+/// P packed c x (n c). @throws kfx::Error naming it.
+void RequirePackedCovariance(const std::string& name, const Eigen::MatrixXd& P, Eigen::Index c, Eigen::Index n);
+
+// Raw access to block i of a packed matrix with `rows` rows and blocks `cols` wide.
+inline Eigen::Map<const Eigen::MatrixXd> BlockOf(const Eigen::MatrixXd& m, Eigen::Index i, Eigen::Index cols) {
+  return Eigen::Map<const Eigen::MatrixXd>(m.data() + i * cols * m.rows(), m.rows(), cols);
+}
+inline Eigen::Map<Eigen::MatrixXd> BlockOf(Eigen::MatrixXd& m, Eigen::Index i, Eigen::Index cols) {
+  return Eigen::Map<Eigen::MatrixXd>(m.data() + i * cols * m.rows(), m.rows(), cols);
+}
+
+}  // namespace kfx::detail
