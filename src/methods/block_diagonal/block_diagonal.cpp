@@ -1,6 +1,7 @@
 // The one-step covariance updates of the block-diagonal, banded and full filters (004 eqs. (3)-(17))
-// and the filters on data. The coupled model is in coupled_model.cpp; steady state, Prop. 2.2 and the
-// identical-subsystem reduction are in block_diagonal_analysis.cpp.
+// and the filters on data. The coupled model is in coupled_model.cpp, the packed block-diagonal
+// helpers in packed_blocks.cpp; steady state, Prop. 2.2 and the identical-subsystem reduction are in
+// block_diagonal_analysis.cpp.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -26,6 +27,8 @@ void SetBlockDiagonalSpecializedKernels(bool enabled) { specialized_kernels.stor
 }  // namespace detail
 
 using detail::BlockOf;
+using detail::BlockRowsTimes;
+using detail::BlockRowsTimesRaw;
 using detail::RequirePackedCovariance;
 using detail::RequireStepShapes;
 using Eigen::Index;
@@ -63,6 +66,10 @@ void BlockRowsTimesImpl(const double* bl, Index a_rt, Index b_rt, Index nb, cons
   }
 }
 
+}  // namespace
+
+namespace detail {
+
 // dst = blockdiag(blocks_i) src for nb blocks a x b stored contiguously (column-major) from bl.
 void BlockRowsTimesRaw(const double* bl, Index a, Index b, Index nb, const double* src, Index src_ld, double* dst,
                        Index dst_ld, Index cols) {
@@ -75,11 +82,9 @@ void BlockRowsTimesRaw(const double* bl, Index a, Index b, Index nb, const doubl
   BlockRowsTimesImpl<0, 0>(bl, a, b, nb, src, src_ld, dst, dst_ld, cols);
 }
 
-void BlockRowsTimes(const MatrixXd& blocks, Index b, Index i0, Index nb, const double* src, Index src_ld, double* dst,
-                    Index dst_ld, Index cols) {
-  const Index a = blocks.rows();
-  BlockRowsTimesRaw(blocks.data() + i0 * a * b, a, b, nb, src, src_ld, dst, dst_ld, cols);
-}
+}  // namespace detail
+
+namespace {
 
 // Block i of a packed matrix as the (fixed-size when possible) type Mat, and back.
 template <typename Mat>
@@ -385,62 +390,6 @@ void CongruenceSoA(Index c, Index nb, const double* A, const double* T, double* 
 }
 
 }  // namespace
-
-// ---- Packed helpers --------------------------------------------------------------------------------
-
-MatrixXd BlockDiagonalToDense(const MatrixXd& blocks, Index block_cols) {
-  if (block_cols < 1 || blocks.cols() % block_cols != 0) {
-    throw Error("blocks: expected a x (n b) packed blocks with b = " + std::to_string(block_cols) + ", got " +
-                ShapeString(blocks.rows(), blocks.cols()));
-  }
-  const Index a = blocks.rows(), n = blocks.cols() / block_cols;
-  MatrixXd dense = MatrixXd::Zero(n * a, n * block_cols);
-  for (Index i = 0; i < n; ++i) {
-    dense.block(i * a, i * block_cols, a, block_cols) = blocks.middleCols(i * block_cols, block_cols);
-  }
-  return dense;
-}
-
-MatrixXd DiagonalBlocks(const MatrixXd& M, Index a) {
-  if (a < 1 || M.rows() != M.cols() || M.rows() % a != 0) {
-    throw Error("M: expected a square matrix of size a multiple of " + std::to_string(a) + ", got " +
-                ShapeString(M.rows(), M.cols()));
-  }
-  const Index n = M.rows() / a;
-  MatrixXd blocks(a, n * a);
-  for (Index i = 0; i < n; ++i) blocks.middleCols(i * a, a) = M.block(i * a, i * a, a, a);
-  return blocks;
-}
-
-VectorXd BlockDiagonalApply(const MatrixXd& blocks, Index block_cols, const VectorXd& x) {
-  if (block_cols < 1 || blocks.cols() % block_cols != 0) {
-    throw Error("blocks: expected packed blocks " + std::to_string(block_cols) + " wide, got " +
-                ShapeString(blocks.rows(), blocks.cols()));
-  }
-  RequireVector("x", x, blocks.cols());
-  const Index n = blocks.cols() / block_cols;
-  VectorXd y(n * blocks.rows());
-  BlockRowsTimes(blocks, block_cols, 0, n, x.data(), x.size(), y.data(), y.size(), 1);
-  return y;
-}
-
-ModelStep ToDenseStep(const CoupledStep& s) {
-  RequireStepShapes(s, "");
-  const Index c = s.c();
-  MatrixXd Q = BlockDiagonalToDense(s.V, c);
-  if (s.r() > 0) Q.noalias() += s.G * s.U * s.G.transpose();
-  Symmetrize(Q);
-  return MakeStep(BlockDiagonalToDense(s.F, c), BlockDiagonalToDense(s.H, c), std::move(Q),
-                  BlockDiagonalToDense(s.R, s.d()));
-}
-
-Model ToDenseModel(const CoupledSystem& system) {
-  MatrixXd P0 = BlockDiagonalToDense(system.P0_blocks(), system.c());
-  if (system.time_invariant()) return Model(ToDenseStep(*system.step(1)), system.m0(), std::move(P0));
-  return Model(
-      system.state_dim(), system.meas_dim(), [system](int k) { return ToDenseStep(*system.step(k)); }, system.m0(),
-      std::move(P0), system.horizon());
-}
 
 // ---- The block-diagonal step, eqs. (8)-(17) --------------------------------------------------------
 

@@ -1,7 +1,7 @@
 #pragma once
 // Private helpers shared by the files of the block-diagonal method (004): the shape checks of a coupled
-// step and raw access to packed blocks. (The range-based passes that the distributed filter calls are
-// declared in block_diagonal_internal.hpp.)
+// step, raw access to packed blocks and the product with a packed block-diagonal matrix. (The
+// range-based passes that the distributed filter calls are declared in block_diagonal_internal.hpp.)
 #include <Eigen/Dense>
 #include <string>
 
@@ -21,6 +21,20 @@ inline Eigen::Map<const Eigen::MatrixXd> BlockOf(const Eigen::MatrixXd& m, Eigen
 }
 inline Eigen::Map<Eigen::MatrixXd> BlockOf(Eigen::MatrixXd& m, Eigen::Index i, Eigen::Index cols) {
   return Eigen::Map<Eigen::MatrixXd>(m.data() + i * cols * m.rows(), m.rows(), cols);
+}
+
+// dst = blockdiag(blocks_i) src for nb blocks a x b stored contiguously (column-major) from bl; src and
+// dst column-major with `cols` columns (leading dimensions src_ld, dst_ld). The fixed-shape kernels for
+// a, b <= 2 unless SetBlockDiagonalSpecializedKernels(false) (block_diagonal.cpp).
+void BlockRowsTimesRaw(const double* bl, Eigen::Index a, Eigen::Index b, Eigen::Index nb, const double* src,
+                       Eigen::Index src_ld, double* dst, Eigen::Index dst_ld, Eigen::Index cols);
+
+// The same for blocks [i0, i0 + nb) of a packed matrix (blocks.rows() x (n b)).
+inline void BlockRowsTimes(const Eigen::MatrixXd& blocks, Eigen::Index b, Eigen::Index i0, Eigen::Index nb,
+                           const double* src, Eigen::Index src_ld, double* dst, Eigen::Index dst_ld,
+                           Eigen::Index cols) {
+  const Eigen::Index a = blocks.rows();
+  BlockRowsTimesRaw(blocks.data() + i0 * a * b, a, b, nb, src, src_ld, dst, dst_ld, cols);
 }
 
 }  // namespace kfx::detail
