@@ -1,7 +1,8 @@
 #pragma once
 // Private helpers shared by the files of the block-diagonal method (004): the shape checks of a coupled
-// step, raw access to packed blocks and the product with a packed block-diagonal matrix. (The
-// range-based passes that the distributed filter calls are declared in block_diagonal_internal.hpp.)
+// step, raw access to packed blocks, the product with a packed block-diagonal matrix and the
+// per-subsystem Kalman steps. (The range-based passes that the distributed filter calls are declared
+// in block_diagonal_internal.hpp.)
 #include <Eigen/Dense>
 #include <string>
 
@@ -36,5 +37,12 @@ inline void BlockRowsTimes(const Eigen::MatrixXd& blocks, Eigen::Index b, Eigen:
   const Eigen::Index a = blocks.rows();
   BlockRowsTimesRaw(blocks.data() + i0 * a * b, a, b, nb, src, src_ld, dst, dst_ld, cols);
 }
+
+// The per-subsystem Kalman step for subsystems [i0, i1) with process noise Q (packed c x (n c)):
+// L = F P F^T + Q, M = H L H^T + R = R_c^T R_c (Cholesky), J = L H^T M^{-1} into J, P_out = L - J H L,
+// and, when rinv is not null, R_c^{-1} (d x d upper triangular) into rinv[(i - i0) d^2 ...]
+// (subsystem_steps.cpp). @throws kfx::NumericalError if some M is not positive definite.
+void SubsystemKalmanSteps(const CoupledStep& s, const Eigen::MatrixXd& Pp, const Eigen::MatrixXd& Q, Eigen::Index i0,
+                          Eigen::Index i1, double* rinv, Eigen::MatrixXd& J, Eigen::MatrixXd& P_out);
 
 }  // namespace kfx::detail
