@@ -317,8 +317,8 @@ struct BandedSteadyState {
 BandedSteadyState SolveBandedSteadyState(const CoupledStep& s);
 
 /// Prop. 2.2 (004 Appendix A.2): the constants and the bounds, with Q = V + G U G^T, as printed and
-/// as corrected by kfx. The printed bounds fail on random systems (tests/block_diagonal_test.cpp);
-/// docs/papers/004.md derives the three corrections:
+/// as corrected by kfx. The printed bounds fail on random systems
+/// (tests/methods/block_diagonal/block_diagonal_test.cpp); docs/papers/004.md derives the three corrections:
 ///  - alpha1 = 1 / (1 - rho(F_c)^2) is the norm of the inverse Lyapunov operator only for normal F_c;
 ///    the corrected constant is the operator norm ||(I - A (x) A)^{-1}||_2 itself;
 ///  - the forcing of the perturbed Riccati equation passes through I - K H (update form) or the

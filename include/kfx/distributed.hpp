@@ -14,8 +14,8 @@
 // whatever rank holds it. The granules' partial sums are added in double-double arithmetic (a
 // compensated (hi, lo) pair per entry, error ~ 1e-32 relative), so the order of the additions — which
 // MPI_Allreduce does not fix — changes the rounded sum only when it lies within ~1e-32 of a rounding
-// boundary. In practice np = 1, 2, 4 give the same bits (tests/distributed_test.cpp,
-// tests/mpi/mpi_blockdiag.cpp measure the difference).
+// boundary. In practice np = 1, 2, 4 give the same bits (tests/distributed/distributed_test.cpp,
+// tests/mpi/mpi_distributed_check.cpp measure the difference).
 #include <Eigen/Dense>
 #include <cstdint>
 #include <functional>

@@ -41,7 +41,7 @@ struct EnumValues<CovarianceUpdateForm> {
   static constexpr CovarianceUpdateForm kAll[] = {CovarianceUpdateForm::kJoseph, CovarianceUpdateForm::kStandard};
 };
 
-/// How the covariance is represented and propagated (src/robust_filter.cpp, docs/robustness.md).
+/// How the covariance is represented and propagated (src/filter/, docs/robustness.md).
 /// All forms give the same gains in exact arithmetic; they differ in rounding.
 enum class FilterForm {
   kConventional,  ///< P itself, update by update_form (Joseph or standard). Default.

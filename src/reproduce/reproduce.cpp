@@ -19,7 +19,7 @@ struct PaperInfo {
   const char* title;
   const char* reference;  // the paper's full reference (docs/papers/README.md)
   // The paper's reproduction, defined in its own src/reproduce_<paper>.cpp (declared in
-  // src/reproduce_papers.hpp). Explicit, not self-registering: a static library drops objects
+  // src/reproduce/papers.hpp). Explicit, not self-registering: a static library drops objects
   // that nothing references.
   Reproducer reproduce;
 };

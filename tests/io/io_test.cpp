@@ -1,4 +1,4 @@
-// Tests of src/io_csv.cpp: CSV time series and ReadTimeSeries / WriteTimeSeries (format by extension).
+// Tests of src/io/csv.cpp: CSV time series and ReadTimeSeries / WriteTimeSeries (format by extension).
 #include <gtest/gtest.h>
 
 #include <cmath>

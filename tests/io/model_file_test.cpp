@@ -1,4 +1,4 @@
-// Tests of src/model_file.cpp: LoadModel / SaveModel and the bundled examples/models/.
+// Tests of src/io/model_file.cpp: LoadModel / SaveModel and the bundled examples/models/.
 // Oracles: hand-written files with known matrices, bit-for-bit round trips, every error path, and
 // for the mass-spring chain an independent discretization (Eigen's matrix exponential).
 #include <gtest/gtest.h>

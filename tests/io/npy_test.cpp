@@ -1,4 +1,4 @@
-// Tests of src/io_npy.cpp: the .npy reader and writer.
+// Tests of src/io/npy.cpp: the .npy reader and writer.
 // Oracles: fixtures written by numpy 1.24.2 (tests/data/npy/make_fixtures.py, values repeated here),
 // byte-for-byte equality of our writer with numpy.save, round trips, and every malformed input.
 #include <gtest/gtest.h>

@@ -52,7 +52,7 @@ def test_reproduce_equals_the_cli_json(cli, tmp_path):
     assert kfx.paper_ids() == ["aalto-spatial", "bernstein", "patel-toda", "aalto-temporal", "block-diagonal"]
 
 
-# ---- closed forms (the numbers of tests/riccati_test.cpp and tests/kalman_filter_test.cpp) -----------
+# ---- closed forms (the numbers of tests/riccati/riccati_test.cpp and tests/filter/kalman_filter_test.cpp) -----------
 
 
 @pytest.mark.parametrize("a,c,q,r", [(0.5, 1.0, 1.0, 1.0), (1.5, 2.0, 0.3, 0.7), (-3.0, 0.5, 2.0, 4.0),
@@ -72,7 +72,7 @@ def test_scalar_dare_is_the_positive_root(a, c, q, r, method):
 
 
 def test_double_integrator_dare_closed_form():
-    # tests/riccati_test.cpp: a = 2, r = 1 gives q = 1/3, P = [2 1; 1 1], K_f = [2/3; 1/3], K_p = [1; 1/3].
+    # tests/riccati/riccati_test.cpp: a = 2, r = 1 gives q = 1/3, P = [2 1; 1 1], K_f = [2/3; 1/3], K_p = [1; 1/3].
     A = np.array([[1.0, 1.0], [0.0, 1.0]])
     s = kfx.solve_filter_dare(A, [[1.0, 0.0]], np.diag([0.0, 1.0 / 3]), [[1.0]], exact_eigenvalues=True)
     assert s.eigenvalues_exact

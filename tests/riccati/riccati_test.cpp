@@ -1,4 +1,4 @@
-// Tests of SolveFilterDare / FilterDareResidual (src/riccati.cpp). Oracles, strongest first:
+// Tests of SolveFilterDare / FilterDareResidual (src/riccati/). Oracles, strongest first:
 // closed forms (scalar quadratic, a double-integrator family derived by hand below), the
 // independent second method (doubling vs SLICOT SB02OD), the Riccati recursion run to steady
 // state, residuals and invariants (symmetry, PSD, stabilizing), diagnosis of ill-posed problems,

@@ -1,6 +1,6 @@
 // Filters built on a wrong model (paper 002): the exact true error by 002's recursions (15)-(19),
 // time-varying and stationary, error ranges, and the search of an error box. The bounds of
-// Theorems 1-6 are in src/mismatch_bounds.cpp. API and equations: include/kfx/mismatch.hpp.
+// Theorems 1-6 are in src/methods/mismatch/mismatch_bounds.cpp. API and equations: include/kfx/mismatch.hpp.
 #include "kfx/mismatch.hpp"
 
 #include <algorithm>
@@ -21,7 +21,7 @@ extern "C" {
 /// SLICOT SB04QD: the discrete-time Sylvester equation X + A X B = C (N x N A, M x M B, N x M C
 /// overwritten by X) by the Hessenberg-Schur method. iwork: 4N; ldwork >= max(1, 2N^2 + 9N, 5M, N + M).
 /// info: 0 ok, 1..M QR of B failed, > M a singular system (some a_i b_j = -1). Conventions as in
-/// src/lapack_fortran.hpp (gfortran, by reference, column-major).
+/// src/base/lapack_fortran.hpp (gfortran, by reference, column-major).
 void sb04qd_(const int* n, const int* m, double* a, const int* lda, double* b, const int* ldb, double* c,
              const int* ldc, double* z, const int* ldz, int* iwork, double* dwork, const int* ldwork, int* info);
 }

@@ -1,4 +1,4 @@
-"""Writes the .npy fixtures of tests/npy_test.cpp with real numpy (provenance of the committed bytes).
+"""Writes the .npy fixtures of tests/io/npy_test.cpp with real numpy (provenance of the committed bytes).
 
 Run from this folder: python3 make_fixtures.py  (written with numpy 1.24.2). The tests do not need
 numpy; they read the committed files and compare with the values below, which they repeat.

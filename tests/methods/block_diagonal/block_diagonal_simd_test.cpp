@@ -1,4 +1,4 @@
-// AVX2/FMA kernels of the block-diagonal passes (src/block_diagonal_simd.hpp) against
+// AVX2/FMA kernels of the block-diagonal passes (src/methods/block_diagonal/block_diagonal_simd.hpp) against
 // straightforward loops on seeded random data: every tail of nb and r, strided G, null and
 // non-null rnu, accumulation into non-zero N and ytnu, the strict upper triangle of N untouched,
 // nothing read beyond the stated extents (NaN there) or written beyond the scratch size.
