@@ -1,12 +1,13 @@
 #pragma once
 // Private helpers shared by the files of the block-diagonal method (004): the shape checks of a coupled
-// step, raw access to packed blocks, the product with a packed block-diagonal matrix and the
-// per-subsystem Kalman steps. (The range-based passes that the distributed filter calls are declared
-// in block_diagonal_internal.hpp.)
+// step, raw access to packed blocks, the product with a packed block-diagonal matrix, the per-subsystem
+// Kalman steps, and the whole O(n r^2) step with the running filter's estimate update folded in. (The
+// range-based passes that the distributed filter calls are declared in block_diagonal_internal.hpp.)
 #include <Eigen/Dense>
 #include <string>
 
 #include "kfx/block_diagonal.hpp"
+#include "methods/block_diagonal/block_diagonal_internal.hpp"
 
 namespace kfx::detail {
 
@@ -44,5 +45,20 @@ inline void BlockRowsTimes(const Eigen::MatrixXd& blocks, Eigen::Index b, Eigen:
 // (subsystem_steps.cpp). @throws kfx::NumericalError if some M is not positive definite.
 void SubsystemKalmanSteps(const CoupledStep& s, const Eigen::MatrixXd& Pp, const Eigen::MatrixXd& Q, Eigen::Index i0,
                           Eigen::Index i1, double* rinv, Eigen::MatrixXd& J, Eigen::MatrixXd& P_out);
+
+// The estimate update folded into the covariance passes (the running filter): on entry x = F x_prev
+// and nu is the innovation (length n d); on exit x = F x_prev + K nu (eq. (7)) and mu_u = C_1 Y^T nu.
+struct EstimateFold {
+  const double* nu;
+  double* x;
+  Eigen::VectorXd* mu_u;
+  const PredictFold* predict;  // when given, pass 1 forms x = F x_prev and nu first
+};
+
+// Eqs. (8)-(17) over all subsystems into out (its storage reused), E^T and Y^T stored when store_gain,
+// and, when est is given, the estimate update folded in (block_diagonal_step.cpp). Shapes must have
+// been checked by the caller.
+void BlockDiagonalUpdate(const CoupledStep& s, const Eigen::MatrixXd& Pp, BlockDiagonalCovarianceStep& out,
+                         bool store_gain, const EstimateFold* est);
 
 }  // namespace kfx::detail
