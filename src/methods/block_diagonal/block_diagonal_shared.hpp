@@ -27,7 +27,7 @@ inline Eigen::Map<Eigen::MatrixXd> BlockOf(Eigen::MatrixXd& m, Eigen::Index i, E
 
 // dst = blockdiag(blocks_i) src for nb blocks a x b stored contiguously (column-major) from bl; src and
 // dst column-major with `cols` columns (leading dimensions src_ld, dst_ld). The fixed-shape kernels for
-// a, b <= 2 unless SetBlockDiagonalSpecializedKernels(false) (block_diagonal.cpp).
+// a, b <= 2 unless SetBlockDiagonalSpecializedKernels(false) (block_diagonal_passes.cpp).
 void BlockRowsTimesRaw(const double* bl, Eigen::Index a, Eigen::Index b, Eigen::Index nb, const double* src,
                        Eigen::Index src_ld, double* dst, Eigen::Index dst_ld, Eigen::Index cols);
 
