@@ -1,5 +1,6 @@
 // The coupled-subsystem model of 004 (include/kfx/block_diagonal.hpp): the shape checks of one step,
-// its validation, and CoupledSystem (time-invariant, a stored sequence, or a callback; the prior).
+// its validation, CoupledSystem (time-invariant, a stored sequence, or a callback; the prior), the
+// model's mean maps (x -> F x, H F x) and its simulation.
 #include <memory>
 #include <string>
 #include <utility>
@@ -7,6 +8,7 @@
 
 #include "kfx/block_diagonal.hpp"
 #include "kfx/error.hpp"
+#include "kfx/simulation.hpp"
 #include "kfx/validation.hpp"
 #include "methods/block_diagonal/block_diagonal_shared.hpp"
 
@@ -38,6 +40,7 @@ void RequirePackedCovariance(const std::string& name, const MatrixXd& P, Index c
 
 }  // namespace detail
 
+using detail::BlockOf;
 using detail::RequirePackedCovariance;
 using detail::RequireStepShapes;
 
@@ -146,6 +149,47 @@ int CoupledSystem::ResolveSteps(int steps) const {
                 std::to_string(steps));
   }
   return steps;
+}
+
+VectorXd CoupledPropagate(const CoupledStep& s, const VectorXd& x_prev) {
+  return BlockDiagonalApply(s.F, s.c(), x_prev);
+}
+
+VectorXd CoupledPredictMeasurement(const CoupledStep& s, const VectorXd& x_prev) {
+  return BlockDiagonalApply(s.H, s.c(), CoupledPropagate(s, x_prev));
+}
+
+CoupledTrajectory SimulateCoupled(const CoupledSystem& system, const SimulationOptions& options) {
+  const int T = system.ResolveSteps(options.steps);
+  const Index n = system.n(), c = system.c(), d = system.d(), r = system.r();
+  Rng rng(options.seed);
+  CoupledTrajectory tr;
+  tr.x.resize(T + 1, n * c);
+  tr.y.resize(T, n * d);
+  tr.u.resize(T, r);
+  VectorXd x(n * c);
+  for (Index i = 0; i < n; ++i) {
+    x.segment(i * c, c) =
+        system.m0().segment(i * c, c) + PsdFactor(system.P0_blocks().middleCols(i * c, c)) * rng.Normal(c);
+  }
+  tr.x.row(0) = x.transpose();
+  for (int k = 1; k <= T; ++k) {
+    const auto s = system.step(k);
+    const VectorXd u = PsdFactor(s->U) * rng.Normal(r);
+    VectorXd xn = CoupledPropagate(*s, x);
+    if (r > 0) xn.noalias() += s->G * u;
+    VectorXd yk(n * d);
+    for (Index i = 0; i < n; ++i) {
+      xn.segment(i * c, c) += PsdFactor(BlockOf(s->V, i, c)) * rng.Normal(c);
+    }
+    yk = BlockDiagonalApply(s->H, c, xn);
+    for (Index i = 0; i < n; ++i) yk.segment(i * d, d) += PsdFactor(BlockOf(s->R, i, d)) * rng.Normal(d);
+    x = std::move(xn);
+    tr.x.row(k) = x.transpose();
+    tr.y.row(k - 1) = yk.transpose();
+    tr.u.row(k - 1) = u.transpose();
+  }
+  return tr;
 }
 
 }  // namespace kfx

@@ -1,9 +1,8 @@
-// The filters of 004 on data: the online part of the coupled-subsystem filters (CoupledFilter, one step
-// of any of the four kinds), running them over a series, as LinearFilter, and simulating the model. The
-// O(n r^2) step itself is in block_diagonal_step.cpp and block_diagonal_passes.cpp, the coupled model
-// in coupled_model.cpp, the packed block-diagonal helpers in packed_blocks.cpp, the per-subsystem
-// Kalman steps in subsystem_steps.cpp, the naive, banded and full steps in reference_steps.cpp; steady
-// state, Prop. 2.2 and the identical-subsystem reduction are in block_diagonal_analysis.cpp.
+// The coupled-subsystem filters of 004 on data: CoupledFilter (the online step of the block-diagonal,
+// naive, banded and full filters), running one over a measurement series, and one as a LinearFilter
+// (its gains and closed-loop maps). The O(n r^2) step itself is in block_diagonal_step.cpp and
+// block_diagonal_passes.cpp, the model and its simulation in coupled_model.cpp, the naive, banded and
+// full steps in reference_steps.cpp.
 #include <algorithm>
 #include <string>
 #include <utility>
@@ -11,7 +10,6 @@
 
 #include "kfx/block_diagonal.hpp"
 #include "kfx/error.hpp"
-#include "kfx/simulation.hpp"
 #include "kfx/validation.hpp"
 #include "methods/block_diagonal/block_diagonal_internal.hpp"
 #include "methods/block_diagonal/block_diagonal_shared.hpp"
@@ -19,23 +17,12 @@
 namespace kfx {
 
 using detail::BlockDiagonalUpdate;
-using detail::BlockOf;
 using detail::EstimateFold;
 using detail::RequirePackedCovariance;
 using detail::RequireStepShapes;
 using Eigen::Index;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
-
-// ---- Online part -----------------------------------------------------------------------------------
-
-VectorXd CoupledPropagate(const CoupledStep& s, const VectorXd& x_prev) {
-  return BlockDiagonalApply(s.F, s.c(), x_prev);
-}
-
-VectorXd CoupledPredictMeasurement(const CoupledStep& s, const VectorXd& x_prev) {
-  return BlockDiagonalApply(s.H, s.c(), CoupledPropagate(s, x_prev));
-}
 
 const char* ToString(CoupledFilterKind kind) {
   switch (kind) {
@@ -213,39 +200,6 @@ LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFil
     if (options.progress) options.progress(k, T);
   }
   return LinearFilter(std::move(out), system.m0());
-}
-
-CoupledTrajectory SimulateCoupled(const CoupledSystem& system, const SimulationOptions& options) {
-  const int T = system.ResolveSteps(options.steps);
-  const Index n = system.n(), c = system.c(), d = system.d(), r = system.r();
-  Rng rng(options.seed);
-  CoupledTrajectory tr;
-  tr.x.resize(T + 1, n * c);
-  tr.y.resize(T, n * d);
-  tr.u.resize(T, r);
-  VectorXd x(n * c);
-  for (Index i = 0; i < n; ++i) {
-    x.segment(i * c, c) =
-        system.m0().segment(i * c, c) + PsdFactor(system.P0_blocks().middleCols(i * c, c)) * rng.Normal(c);
-  }
-  tr.x.row(0) = x.transpose();
-  for (int k = 1; k <= T; ++k) {
-    const auto s = system.step(k);
-    const VectorXd u = PsdFactor(s->U) * rng.Normal(r);
-    VectorXd xn = CoupledPropagate(*s, x);
-    if (r > 0) xn.noalias() += s->G * u;
-    VectorXd yk(n * d);
-    for (Index i = 0; i < n; ++i) {
-      xn.segment(i * c, c) += PsdFactor(BlockOf(s->V, i, c)) * rng.Normal(c);
-    }
-    yk = BlockDiagonalApply(s->H, c, xn);
-    for (Index i = 0; i < n; ++i) yk.segment(i * d, d) += PsdFactor(BlockOf(s->R, i, d)) * rng.Normal(d);
-    x = std::move(xn);
-    tr.x.row(k) = x.transpose();
-    tr.y.row(k - 1) = yk.transpose();
-    tr.u.row(k - 1) = u.transpose();
-  }
-  return tr;
 }
 
 }  // namespace kfx
