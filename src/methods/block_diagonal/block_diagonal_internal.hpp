@@ -1,7 +1,8 @@
 #pragma once
 // Range-based passes of the O(n r^2) block-diagonal step (004 eqs. (8)-(17)), for the distributed
-// filter (include/kfx/distributed.hpp). They call the same kernels as BlockDiagonalCovarianceUpdate
-// (src/block_diagonal.cpp); for subsystems [i0, i1) of the (local) step s:
+// filter (include/kfx/distributed.hpp), defined in block_diagonal_passes.cpp; BlockDiagonalCovarianceUpdate
+// (block_diagonal_step.cpp) runs the same passes over all subsystems. For subsystems [i0, i1) of the
+// (local) step s:
 //   pass 1: the per-subsystem Kalman steps (J, P = L - J H L) and E^T, Y^T, and N += Z^T Z;
 //   factor: C_1 = (U^{-1} + N)^{-1} = Fc Fc^T without inverting U;
 //   pass 2: P_i += W_i W_i^T, W_i = E_i Fc = A_i G_i Fc with A_i = J_i H_i - I (E is never formed:

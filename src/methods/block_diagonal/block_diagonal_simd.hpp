@@ -1,7 +1,7 @@
 #pragma once
 // AVX2/FMA kernels of the O(n r^2) block-diagonal passes (004 eqs. (8)-(17)) for the paper's shape
 // c = 2 (two states per subsystem), chosen at run time when the CPU has AVX2 and FMA. The portable
-// kernels in block_diagonal.cpp stay the reference (tests compare the two) and the fallback.
+// kernels in block_diagonal_passes.cpp stay the reference (tests compare the two) and the fallback.
 // Compiled with per-function target attributes (no -mavx2 for the file): nothing here may be
 // inlined into, or call, code compiled for the baseline ISA except through these entry points.
 #include <Eigen/Core>
