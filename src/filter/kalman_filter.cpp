@@ -5,6 +5,7 @@
 #include <type_traits>
 
 #include "filter/filter_forms.hpp"
+#include "filter/filter_health_internal.hpp"
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
 
