@@ -147,6 +147,9 @@ class FactoredCovariance {
     }
   }
 
+  // The step's matrices change: the factor of Q is made anew at the next Predict.
+  void NewStep() { noise_factor_.resize(0, 0); }
+
   MatrixXd Covariance() const {
     MatrixXd P;
     switch (form_) {
@@ -279,11 +282,9 @@ class FactoredCovariance {
   }
 
  private:
+  // The factor of s.Q, made at the first Predict after NewStep (once per run for a time-invariant model).
   const MatrixXd& NoiseFactor(const ModelStep& s) {
-    if (&s != noise_step_ || noise_factor_.rows() != n_) {
-      noise_factor_ = PsdFactor(s.Q, "process noise covariance Q");
-      noise_step_ = &s;
-    }
+    if (noise_factor_.rows() != n_) noise_factor_ = PsdFactor(s.Q, "process noise covariance Q");
     return noise_factor_;
   }
 
@@ -323,9 +324,8 @@ class FactoredCovariance {
   MatrixXd L_;  // square root: P = L L^T (n x n, lower triangular after the first step)
   MatrixXd U_;  // UD
   VectorXd d_;
-  MatrixXd Y_;  // information
-  const ModelStep* noise_step_ = nullptr;
-  MatrixXd noise_factor_;
+  MatrixXd Y_;             // information
+  MatrixXd noise_factor_;  // of the current step's Q; empty until the first Predict of a step
 };
 
 FactoredForm::FactoredForm(const KalmanFilterOptions& options, Index n) : form_(options.form), n_(n) {}
@@ -340,7 +340,10 @@ void FactoredForm::Start(const VectorXd& x, const MatrixXd& P) {
   P_ = P;
 }
 
-void FactoredForm::SetStep(const ModelStep& s) { step_ = &s; }
+void FactoredForm::SetStep(const ModelStep& s) {
+  step_ = &s;
+  cov_->NewStep();
+}
 
 void FactoredForm::Predict() {
   VectorXd x;

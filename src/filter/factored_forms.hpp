@@ -27,6 +27,7 @@ class FactoredForm {
   std::string context() const;
   /// @throws kfx::NumericalError if P has no factor of this form.
   void Start(const Eigen::VectorXd& x, const Eigen::MatrixXd& P);
+  /// After Start; the step must outlive its use (until the next SetStep).
   void SetStep(const ModelStep& s);
   void Predict();
   /// false (nothing changed) when no entry of y is observed.
