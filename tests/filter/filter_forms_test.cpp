@@ -103,6 +103,37 @@ TEST(RobustFilter, OneStepFunctionsAndClassAcceptEveryForm) {
   }
 }
 
+// A model given by a callback makes a new step object at each k (the old one may be freed and its
+// address reused): every form must factor each step's own Q, so the run equals the run of the same
+// steps given as a vector.
+TEST(RobustFilter, CallbackModelRunsAsTheSameStepsInAVector) {
+  const int n = 4, m = 2, T = 30;
+  testing::TestRng rng(41);
+  std::vector<ModelStep> steps;
+  for (int k = 0; k < T; ++k) {
+    const double q = k % 2 == 0 ? 0.01 : 10.0;
+    steps.push_back(MakeStep(0.9 * MatrixXd::Identity(n, n), rng.Gaussian(m, n), q * MatrixXd::Identity(n, n),
+                             MatrixXd::Identity(m, m)));
+  }
+  const Model vector_model(steps, VectorXd::Ones(n), MatrixXd::Identity(n, n));
+  const Model callback_model(
+      n, m, [&steps](int k) { return steps[static_cast<size_t>(k - 1)]; }, VectorXd::Ones(n), MatrixXd::Identity(n, n),
+      T);
+  const TimeSeries y = Simulate(vector_model, {T, 3}).y;
+  for (const NamedForm& f : kAll) {
+    SCOPED_TRACE(f.name);
+    const FilterRun a = RunFilter(vector_model, y, RunOptions(f));
+    const FilterRun b = RunFilter(callback_model, y, RunOptions(f));
+    EXPECT_EQ(a.x_filt, b.x_filt);
+    EXPECT_EQ(a.P_filt_diag, b.P_filt_diag);
+    KalmanScheduleOptions so;
+    so.filter = RunOptions(f).filter;
+    const KalmanSchedule sa = ComputeKalmanSchedule(vector_model, so);
+    const KalmanSchedule sb = ComputeKalmanSchedule(callback_model, so);
+    for (int k = 0; k <= T; ++k) EXPECT_EQ(sa.P_filt[static_cast<size_t>(k)], sb.P_filt[static_cast<size_t>(k)]);
+  }
+}
+
 // The exact-performance engine accepts the factored forms: their schedules are the Kalman
 // schedule, and for the Kalman filter on its own model the exact MSE is tr P_{k|k}.
 TEST(RobustFilter, SchedulesGiveTheKalmanFilterToTheExactPerformanceEngine) {

@@ -1,4 +1,5 @@
-// Square-root, UD (Bierman-Thornton) and information forms of the Kalman filter.
+// Square-root, UD (Bierman-Thornton) and information forms of the Kalman filter (FactoredForm,
+// factored_forms.hpp): the covariance kept factored from step to step.
 //
 // Square root (as SLICOT FB01QD, one orthogonal transformation per half-step, Householder QR):
 //   predict: [A L, G_Q]^T = Q_1 [L'^T; 0]                         (P' = A P A^T + Q = L' L'^T)
@@ -11,10 +12,9 @@
 //   M = A^{-T} Y A^{-1} (A invertible) or Y' = Q^{-1} - Q^{-1} A (Y + A^T Q^{-1} A)^{-1} A^T Q^{-1} (Q > 0).
 // References: Bierman, Factorization Methods for Discrete Sequential Estimation (1977); Thornton &
 // Bierman (1978); Kaminski, Bryson & Schmidt, IEEE TAC 16 (1971); SLICOT FB01QD/FB01RD.
-#include "filter/filter_forms.hpp"
+#include "filter/factored_forms.hpp"
 
 #include <cmath>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -111,6 +111,17 @@ struct MeasurementUpdate {
   VectorXd dx;       // K nu
 };
 
+std::vector<Index> ObservedEntries(const Eigen::Ref<const VectorXd>& y) {
+  std::vector<Index> observed;
+  for (Index i = 0; i < y.size(); ++i) {
+    if (std::isinf(y(i))) throw Error("y: expected finite entries or NaN (missing), got inf at " + std::to_string(i));
+    if (!std::isnan(y(i))) observed.push_back(i);
+  }
+  return observed;
+}
+
+}  // namespace
+
 // The covariance of one form, kept factored between steps.
 class FactoredCovariance {
  public:
@@ -135,6 +146,9 @@ class FactoredCovariance {
         throw InternalError("FactoredCovariance: conventional form");
     }
   }
+
+  // The step's matrices change: the factor of Q is made anew at the next Predict.
+  void NewStep() { noise_factor_.resize(0, 0); }
 
   MatrixXd Covariance() const {
     MatrixXd P;
@@ -268,11 +282,9 @@ class FactoredCovariance {
   }
 
  private:
+  // The factor of s.Q, made at the first Predict after NewStep (once per run for a time-invariant model).
   const MatrixXd& NoiseFactor(const ModelStep& s) {
-    if (&s != noise_step_ || noise_factor_.rows() != n_) {
-      noise_factor_ = PsdFactor(s.Q, "process noise covariance Q");
-      noise_step_ = &s;
-    }
+    if (noise_factor_.rows() != n_) noise_factor_ = PsdFactor(s.Q, "process noise covariance Q");
     return noise_factor_;
   }
 
@@ -312,218 +324,56 @@ class FactoredCovariance {
   MatrixXd L_;  // square root: P = L L^T (n x n, lower triangular after the first step)
   MatrixXd U_;  // UD
   VectorXd d_;
-  MatrixXd Y_;  // information
-  const ModelStep* noise_step_ = nullptr;
-  MatrixXd noise_factor_;
+  MatrixXd Y_;             // information
+  MatrixXd noise_factor_;  // of the current step's Q; empty until the first Predict of a step
 };
 
-void CheckDims(const Estimate& e, Index n, const char* what) {
-  RequireVector(std::string(what) + ".x", e.x, n);
-  RequireShape(std::string(what) + ".P", e.P, n, n);
+FactoredForm::FactoredForm(const KalmanFilterOptions& options, Index n) : form_(options.form), n_(n) {}
+
+FactoredForm::~FactoredForm() = default;
+
+std::string FactoredForm::context() const { return FormName(form_) + ": "; }
+
+void FactoredForm::Start(const VectorXd& x, const MatrixXd& P) {
+  cov_ = std::make_unique<FactoredCovariance>(form_, P);
+  x_ = x;
+  P_ = P;
 }
 
-std::vector<Index> ObservedEntries(const Eigen::Ref<const VectorXd>& y) {
-  std::vector<Index> observed;
-  for (Index i = 0; i < y.size(); ++i) {
-    if (std::isinf(y(i))) throw Error("y: expected finite entries or NaN (missing), got inf at " + std::to_string(i));
-    if (!std::isnan(y(i))) observed.push_back(i);
-  }
-  return observed;
+void FactoredForm::SetStep(const ModelStep& s) {
+  step_ = &s;
+  cov_->NewStep();
 }
 
-// Update with the observed entries of y; fills r (except estimate.P).
-void UpdateObserved(FactoredCovariance& cov, const Estimate& prior, const ModelStep& s,
-                    const Eigen::Ref<const VectorXd>& y, UpdateResult* r) {
-  r->observed = ObservedEntries(y);
-  r->estimate.x = prior.x;
-  if (r->observed.empty()) {
-    r->gain.resize(s.A.rows(), 0);
-    return;
-  }
-  const bool all = static_cast<Index>(r->observed.size()) == s.C.rows();
-  const MatrixXd Co = all ? s.C : MatrixXd(s.C(r->observed, Eigen::all));
-  const MatrixXd Ro = all ? s.R : MatrixXd(s.R(r->observed, r->observed));
-  r->innovation = y(r->observed) - Co * prior.x;
-  MeasurementUpdate u = cov.Update(Co, Ro, r->innovation);
-  r->estimate.x += u.dx;
-  r->log_likelihood = -0.5 * (static_cast<double>(r->observed.size()) * kLog2Pi + u.log_det_S + u.nis);
-  r->innovation_cov = std::move(u.S);
-  r->gain = std::move(u.K);
+void FactoredForm::Predict() {
+  VectorXd x;
+  x.noalias() = step_->A * x_;
+  cov_->Predict(*step_);
+  P_ = cov_->Covariance();
+  x_ = std::move(x);
 }
 
-}  // namespace
-
-Estimate FactoredPredict(const Estimate& e, const ModelStep& s, const KalmanFilterOptions& options) {
-  const Index n = s.A.rows();
-  CheckDims(e, n, "estimate");
-  FactoredCovariance cov(options.form, e.P);
-  cov.Predict(s);
-  Estimate out;
-  out.x.noalias() = s.A * e.x;
-  out.P = cov.Covariance();
-  return out;
-}
-
-UpdateResult FactoredUpdate(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const VectorXd>& y,
-                            const KalmanFilterOptions& options) {
-  const Index n = s.A.rows(), m = s.C.rows();
-  CheckDims(prior, n, "prior");
-  if (y.size() != m) {
-    throw Error("y: expected a measurement of length " + std::to_string(m) + ", got length " +
-                std::to_string(y.size()));
+bool FactoredForm::Update(const Eigen::Ref<const VectorXd>& y) {
+  observed_ = ObservedEntries(y);
+  log_likelihood_ = 0.0;
+  if (observed_.empty()) {
+    innovation_.resize(0);
+    innovation_cov_.resize(0, 0);
+    gain_.resize(n_, 0);
+    return false;
   }
-  FactoredCovariance cov(options.form, prior.P);
-  UpdateResult r;
-  UpdateObserved(cov, prior, s, y, &r);
-  r.estimate.P = r.observed.empty() ? prior.P : cov.Covariance();
-  return r;
-}
-
-FilterRun FactoredRunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options) {
-  const Index n = model.state_dim(), m = model.meas_dim();
-  if (y.cols() != m) {
-    throw Error("y: expected " + std::to_string(m) + (m == 1 ? " column" : " columns") +
-                " (the model's measurement dimension), got " + ShapeString(y.rows(), y.cols()));
-  }
-  const int T = model.ResolveSteps(static_cast<int>(y.rows()), "y (rows)");
-  FilterRun run;
-  run.x_filt.resize(T + 1, n);
-  run.x_pred.resize(T + 1, n);
-  run.P_filt_diag.resize(T + 1, n);
-  run.P_pred_diag.resize(T + 1, n);
-  run.innovations = TimeSeries::Constant(T, m, std::numeric_limits<double>::quiet_NaN());
-  run.log_likelihood_terms = VectorXd::Zero(T);
-  run.num_observed.assign(static_cast<size_t>(T), 0);
-  Estimate e{model.m0(), model.P0()};
-  FactoredCovariance cov(options.filter.form, e.P);
-  HealthMonitor monitor(options.monitor_health);
-  run.x_filt.row(0) = e.x.transpose();
-  run.x_pred.row(0) = e.x.transpose();
-  run.P_filt_diag.row(0) = e.P.diagonal().transpose();
-  run.P_pred_diag.row(0) = e.P.diagonal().transpose();
-  if (options.store_covariances) {
-    run.P_filt.push_back(e.P);
-    run.P_pred.push_back(e.P);
-  }
-  for (int k = 1; k <= T; ++k) {
-    const StepPtr s = model.step(k);
-    Estimate pred;
-    pred.x.noalias() = s->A * e.x;
-    try {
-      cov.Predict(*s);
-      pred.P = cov.Covariance();
-    } catch (const NumericalError& err) {
-      throw NumericalError("step " + std::to_string(k) + ": " + FormName(options.filter.form) + ": " + err.what());
-    }
-    run.x_pred.row(k) = pred.x.transpose();
-    run.P_pred_diag.row(k) = pred.P.diagonal().transpose();
-    UpdateResult u;
-    try {
-      UpdateObserved(cov, pred, *s, y.row(k - 1).transpose(), &u);
-      u.estimate.P = u.observed.empty() ? pred.P : cov.Covariance();
-    } catch (const Error& err) {
-      std::string what = err.what();
-      if (what.rfind("y: ", 0) == 0) what = what.substr(3);
-      throw Error("y (row " + std::to_string(k - 1) + "): " + what);
-    } catch (const NumericalError& err) {
-      throw NumericalError("step " + std::to_string(k) + ": " + FormName(options.filter.form) + ": " + err.what());
-    }
-    for (size_t i = 0; i < u.observed.size(); ++i) run.innovations(k - 1, u.observed[i]) = u.innovation(i);
-    run.num_observed[static_cast<size_t>(k - 1)] = static_cast<int>(u.observed.size());
-    run.log_likelihood_terms(k - 1) = u.log_likelihood;
-    RequireFiniteStep(k, u.estimate.x, u.estimate.P, u.log_likelihood);
-    monitor.Observe(k, u.estimate.P, u.innovation, u.innovation_cov);
-    if (options.store_covariances) run.P_pred.push_back(std::move(pred.P));
-    e = std::move(u.estimate);
-    run.x_filt.row(k) = e.x.transpose();
-    run.P_filt_diag.row(k) = e.P.diagonal().transpose();
-    if (options.store_covariances) run.P_filt.push_back(e.P);
-    if (options.progress) options.progress(k, T);
-  }
-  run.log_likelihood = run.log_likelihood_terms.sum();
-  run.health = monitor.Finish();
-  return run;
-}
-
-KalmanSchedule FactoredKalmanSchedule(const Model& model, const KalmanScheduleOptions& schedule_options) {
-  const KalmanFilterOptions& options = schedule_options.filter;
-  const int T = model.ResolveSteps(schedule_options.steps);
-  KalmanSchedule sch;
-  sch.filter_gain.resize(static_cast<size_t>(T) + 1);
-  sch.P_pred.push_back(model.P0());
-  sch.P_filt.push_back(model.P0());
-  FactoredCovariance cov(options.form, model.P0());
-  const Index n = model.state_dim();
-  for (int k = 1; k <= T; ++k) {
-    const StepPtr s = model.step(k);
-    try {
-      cov.Predict(*s);
-      sch.P_pred.push_back(cov.Covariance());
-      const MeasurementUpdate u = cov.Update(s->C, s->R, VectorXd::Zero(s->C.rows()));
-      sch.P_filt.push_back(cov.Covariance());
-      sch.filter_gain[static_cast<size_t>(k)] = u.K;
-    } catch (const NumericalError& err) {
-      throw NumericalError("step " + std::to_string(k) + ": " + FormName(options.form) + ": " + err.what());
-    }
-    RequireFiniteStep(k, VectorXd::Zero(n), sch.P_filt.back(), 0.0);
-    if (!sch.filter_gain[static_cast<size_t>(k)].allFinite()) {
-      throw NumericalError("step " + std::to_string(k) + ": filter gain not finite");
-    }
-    if (schedule_options.progress) schedule_options.progress(k, T);
-  }
-  return sch;
-}
-
-HealthMonitor::HealthMonitor(bool enabled) { h_.monitored = enabled; }
-
-void HealthMonitor::Observe(int k, const Eigen::Ref<const MatrixXd>& P, const Eigen::Ref<const VectorXd>& nu,
-                            const Eigen::Ref<const MatrixXd>& S) {
-  if (!h_.monitored) return;
-  ++h_.steps;
-  const double scale = P.cwiseAbs().maxCoeff();
-  if (scale > 0.0) h_.max_asymmetry = std::max(h_.max_asymmetry, (P - P.transpose()).cwiseAbs().maxCoeff() / scale);
-  const MatrixXd Ps = 0.5 * (P + P.transpose());
-  Eigen::SelfAdjointEigenSolver<MatrixXd> eig(Ps, Eigen::EigenvaluesOnly);
-  const double lmin = eig.eigenvalues().size() > 0 ? eig.eigenvalues()(0) : 0.0;
-  if (lmin < h_.min_eigenvalue) {
-    h_.min_eigenvalue = lmin;
-    h_.min_eigenvalue_step = k;
-  }
-  Eigen::LLT<MatrixXd> llt(Ps);
-  if (llt.info() != Eigen::Success) {
-    if (h_.cholesky_failures == 0) h_.first_cholesky_failure = k;
-    ++h_.cholesky_failures;
-  }
-  if (nu.size() > 0) {
-    Eigen::LLT<MatrixXd> s_llt(S);
-    if (s_llt.info() == Eigen::Success) {
-      h_.nis_sum += s_llt.matrixL().solve(nu).squaredNorm();
-      h_.nis_dof += nu.size();
-    }
-  }
-}
-
-FilterHealth HealthMonitor::Finish() const {
-  FilterHealth h = h_;
-  if (h.monitored && h.nis_dof > 0) {
-    h.nis_mean = h.nis_sum / static_cast<double>(h.nis_dof);
-    const double half = 2.5758293035489 * std::sqrt(2.0 / static_cast<double>(h.nis_dof));
-    h.nis_lower = 1.0 - half;
-    h.nis_upper = 1.0 + half;
-    h.nis_consistent = h.nis_mean >= h.nis_lower && h.nis_mean <= h.nis_upper;
-  }
-  return h;
-}
-
-void RequireFiniteStep(int k, const Eigen::Ref<const VectorXd>& x, const Eigen::Ref<const MatrixXd>& P,
-                       double log_likelihood) {
-  if (!x.allFinite()) throw NumericalError("step " + std::to_string(k) + ": estimate x_{k|k} is not finite");
-  if (!P.diagonal().allFinite() || !P.allFinite()) {
-    throw NumericalError("step " + std::to_string(k) + ": covariance P_{k|k} is not finite");
-  }
-  if (!std::isfinite(log_likelihood)) {
-    throw NumericalError("step " + std::to_string(k) + ": log-likelihood term is not finite");
-  }
+  const ModelStep& s = *step_;
+  const bool all = static_cast<Index>(observed_.size()) == s.C.rows();
+  const MatrixXd Co = all ? s.C : MatrixXd(s.C(observed_, Eigen::all));
+  const MatrixXd Ro = all ? s.R : MatrixXd(s.R(observed_, observed_));
+  innovation_ = y(observed_) - Co * x_;
+  MeasurementUpdate u = cov_->Update(Co, Ro, innovation_);
+  x_ += u.dx;
+  log_likelihood_ = -0.5 * (static_cast<double>(observed_.size()) * kLog2Pi + u.log_det_S + u.nis);
+  innovation_cov_ = std::move(u.S);
+  gain_ = std::move(u.K);
+  P_ = cov_->Covariance();
+  return true;
 }
 
 }  // namespace kfx::detail
