@@ -1,7 +1,8 @@
 # kfx — the two commands of a new machine:
 #   make demo   install missing Debian packages (as root), build Release, run the main job
 #   make test   same set-up, build, run every test through ctest
-# More: make test-asan (ASan + UBSan unit tests), make bench, make format-check, make install.
+# More: make test-asan (ASan + UBSan unit tests), make test-install (install tests with clang++),
+# make test-readme (README's CMake recipe), make bench, make format-check, make install.
 SHELL := /bin/bash
 BUILD ?= build
 ASAN_BUILD ?= build-asan
@@ -16,21 +17,17 @@ PREFIX ?= /usr/local
 export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-DEB_PACKAGES := cmake make g++ pkg-config libeigen3-dev libopenblas-dev liblapacke-dev libslicot-dev \
-                libcli11-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev \
-                python3-matplotlib
-DEB_PACKAGES += pybind11-dev python3-pybind11 python3-numpy python3-pytest
-DEB_PACKAGES += libopenmpi-dev openmpi-bin
-# Fuzzing (make fuzz, make fuzz-smoke): Clang with libFuzzer and the sanitizer runtimes.
-DEB_PACKAGES += clang libclang-rt-14-dev
+# Debian packages per target, by group of tools/deps/debian.txt (the one list; README "Building from
+# source" shows it): make demo/test need the build, Python, test and MPI groups (MPI so that the mpi-labelled
+# tests run; a plain CMake build without it skips them). Clang (make fuzz), Google Benchmark (make bench),
+# SciPy and Octave (make bench-peers) and clang-format are installed only by the targets that use them.
+DEPS_BUILD := build python test mpi
 KFX := $(BUILD)/bin/kfx
-# make bench-peers only (issue 9; not needed by make test or CI):
-PEERS_PACKAGES := python3-scipy octave octave-control
 
 .PHONY: demo test deps build test-asan bench format-check install clean fuzz fuzz-build fuzz-smoke
 
 deps:
-	@bash tools/install-deps.sh $(DEB_PACKAGES)
+	@bash tools/install-deps.sh $(DEPS_BUILD)
 
 build: deps
 	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) > $(BUILD).configure.log 2>&1 || (cat $(BUILD).configure.log; exit 1)
@@ -42,6 +39,17 @@ demo: build
 test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j$(JOBS)
 
+# The install tests (tests/install/) with Clang installed, so that the clang++ consumers run too (make test
+# skips them where clang++ is missing).
+.PHONY: test-install test-readme
+test-install: build
+	@bash tools/install-deps.sh $(DEPS_BUILD) fuzz
+	ctest --test-dir $(BUILD) --output-on-failure -j$(JOBS) -L install
+
+# README's "Building from source" recipe run verbatim on a copy of the tree (tests/readme/run_recipe.sh).
+test-readme: deps
+	bash tests/readme/run_recipe.sh .
+
 # Unit tests under AddressSanitizer + UndefinedBehaviorSanitizer, with Eigen's assertions on
 # (-O1, no NDEBUG).
 test-asan: deps
@@ -51,7 +59,8 @@ test-asan: deps
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --test-dir $(ASAN_BUILD) --output-on-failure -j$(JOBS)
 
-bench: deps
+bench:
+	@bash tools/install-deps.sh build bench
 	@cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DKFX_BUILD_BENCHMARKS=ON -DKFX_BUILD_TESTS=OFF > $(BENCH_BUILD).configure.log 2>&1 || (cat $(BENCH_BUILD).configure.log; exit 1)
 	cmake --build $(BENCH_BUILD) -j$(JOBS)
 	bash bench/run.sh $(BENCH_BUILD)
@@ -60,13 +69,14 @@ bench: deps
 # CPU time; writes $(BENCH_BUILD)/peers/peers.{json,md}. QUICK=1: small sizes only. Not part of make test.
 .PHONY: bench-peers
 bench-peers:
-	@bash tools/install-deps.sh $(DEB_PACKAGES) $(PEERS_PACKAGES)
+	@bash tools/install-deps.sh build bench peers
 	@cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DKFX_BUILD_BENCHMARKS=ON -DKFX_BUILD_TESTS=OFF > $(BENCH_BUILD).configure.log 2>&1 || (cat $(BENCH_BUILD).configure.log; exit 1)
 	cmake --build $(BENCH_BUILD) -j$(JOBS) --target kfx_peers
 	/usr/bin/python3 bench/peers/peers.py --driver $(BENCH_BUILD)/bench/kfx_peers --out $(BENCH_BUILD)/peers $(if $(QUICK),--quick,)
 # libFuzzer targets (readers of .npy, CSV, model files; CLI arguments) under ASan + UBSan, built
 # from the reader sources only. fuzz: FUZZ_RUNS executions each; fuzz-smoke: FUZZ_SECONDS each.
-fuzz-build: deps
+fuzz-build:
+	@bash tools/install-deps.sh build fuzz
 	@cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=clang++ -DKFX_BUILD_FUZZERS=ON \
 	  -DKFX_BUILD_TESTS=OFF -DKFX_BUILD_APPS=OFF -DKFX_PCH=OFF > $(FUZZ_BUILD).configure.log 2>&1 || (cat $(FUZZ_BUILD).configure.log; exit 1)
 	cmake --build $(FUZZ_BUILD) -j$(JOBS) --target kfx_fuzzers
@@ -78,6 +88,7 @@ fuzz-smoke: fuzz-build
 	bash fuzz/run.sh $(FUZZ_BUILD) -max_total_time=$(FUZZ_SECONDS)
 
 format-check:
+	@bash tools/install-deps.sh format
 	@clang-format --dry-run -Werror $$(git ls-files '*.cpp' '*.hpp')
 
 install: build
