@@ -122,10 +122,11 @@ TEST_F(CoupledModelFileTest, NpyFieldsHoldExactlyTheModelsSubsystems) {
   WriteNpy(Path("F2.npy"), {2, 2, 2}, std::vector<double>(8, 0.5).data());
   for (const std::string file : {"F4.npy", "F2.npy"}) {
     const std::string path = Write(kHead + R"(, "F": {"npy": ")" + file + "\"}" + fields);
-    for (const auto& [first, count] : {std::pair<int, int>{0, 3}, {0, 1}, {1, 1}}) {
-      EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { LoadCoupledModelSlice(path, first, count); }, path + ": ",
-                                                   {"field 'F': expected 3 subsystems", file}))
-          << file << " slice " << first << "+" << count;
+    const std::vector<std::pair<int, int>> slices = {{0, 3}, {0, 1}, {1, 1}};
+    for (const std::pair<int, int>& slice : slices) {
+      EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { LoadCoupledModelSlice(path, slice.first, slice.second); },
+                                                   path + ": ", {"field 'F': expected 3 subsystems", file}))
+          << file << " slice " << slice.first << "+" << slice.second;
     }
   }
   WriteNpy(Path("F3.npy"), {3, 2, 2}, std::vector<double>(12, 0.5).data());
