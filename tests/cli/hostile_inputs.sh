@@ -58,7 +58,7 @@ cat > "$tmp/zero_m.json" <<'J'
 J
 for cmd in "simulate -o $tmp/z" "filter --data $data -o $tmp/z" "smooth --data $data -o $tmp/z"; do
   # shellcheck disable=SC2086
-  expect_error "A: expected at least one state" -- ${cmd%% *} "$tmp/zero.json" ${cmd#* }
+  expect_error "'A': expected at least one state" -- ${cmd%% *} "$tmp/zero.json" ${cmd#* }
 done
 expect_error "zero.json\|A: expected at least one state" -- analyze "$tmp/zero.json"
 expect_error "C\|m = 0\|expected" -- simulate "$tmp/zero_m.json" -o "$tmp/z"
