@@ -129,9 +129,9 @@ TEST(CliOptions, EveryIntegerOptionRejectsWhatItCannotHoldExactly) {
           std::string("7 "), std::string("+7"), std::string(""), std::string("-0x1"), std::string("nan")}) {
       std::vector<std::string> args = o.command;
       args.insert(args.end(), {o.name, bad});
-      testing::internal::CaptureStderr();
+      ::testing::internal::CaptureStderr();
       EXPECT_EQ(ParseArgs(args, &cl), 2) << o.command[0] << " " << o.name << " '" << bad << "'";
-      const std::string err = testing::internal::GetCapturedStderr();
+      const std::string err = ::testing::internal::GetCapturedStderr();
       EXPECT_NE(err.find(o.name), std::string::npos) << err;
       EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
     }
