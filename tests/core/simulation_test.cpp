@@ -109,7 +109,7 @@ TEST(Simulate, HugeNoiseIsFiniteAndDivergenceIsAnErrorNamingTheStep) {
   EXPECT_TRUE(tr.x.allFinite());
   EXPECT_TRUE(tr.y.allFinite());
   // x_1 = 0.5 x_0 + sqrt(1e308) w: the sample standard deviation of the increments is about 1e154.
-  const double rms = std::sqrt(tr.x.squaredNorm() / tr.x.rows());
+  const double rms = tr.x.stableNorm() / std::sqrt(static_cast<double>(tr.x.rows()));  // (squaredNorm overflows)
   EXPECT_GT(rms, 1e153);
   EXPECT_LT(rms, 1e155);
   EXPECT_EQ(PsdFactor(huge * MatrixXd::Identity(2, 2)).cwiseAbs().maxCoeff(), std::sqrt(huge));
