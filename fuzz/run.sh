@@ -10,7 +10,7 @@ here="$(cd "$(dirname "$0")" && pwd)"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 mkdir -p "$build/fuzz/artifacts"
-for target in npy csv model cli; do
+for target in npy csv model cli coupled ranges int; do
   work="$build/fuzz/corpus-$target"
   mkdir -p "$work"
   cp -n "$here/corpus/$target/"* "$work/" 2> /dev/null || true

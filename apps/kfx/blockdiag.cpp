@@ -55,9 +55,12 @@ int RunBlockDiag(int argc, char** argv, const BlockDiagArgs& a) {
       MPI_Reduce(&reduce, &max_reduce, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
       if (rank == 0) PrintSummary(job, s, max_seconds, max_reduce);
     } catch (const std::exception& e) {
-      // Every rank knows of a failure (RunBlockDiagJob agrees on it); the rank that failed says why.
-      const std::string msg = e.what();
-      if (msg.find("on another rank") == std::string::npos || rank == 0) {
+      // Every rank knows of a failure (RunBlockDiagJob agrees on it); only the lowest rank that failed on its
+      // own says why (the others hold "failed on another rank"): one line for the job, every rank exits 2.
+      std::string msg = e.what();
+      for (auto& ch : msg)
+        if (ch == '\n' || ch == '\r') ch = ' ';
+      if (msg.find("on another rank") == std::string::npos) {
         std::fprintf(stderr, "kfx: error (rank %d): %s\n", rank, msg.c_str());
       }
       code = 2;

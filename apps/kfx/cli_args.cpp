@@ -3,7 +3,11 @@
 #include "cli_args.hpp"
 
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <type_traits>
 
 #ifndef KFX_VERSION
 #define KFX_VERSION "unknown"
@@ -21,6 +25,56 @@ const std::vector<std::string>& BlockDiagFilterChoices() {
   return choices;
 }
 
+bool ParseIntegerOption(const std::string& text, long long lo, unsigned long long hi, unsigned long long* value) {
+  // Digits only (an optional leading '-' only when lo < 0): CLI11's own conversion wraps "-1" to 2^64 - 1 for an
+  // unsigned option and takes "1e3" or " 7" as it can.
+  const bool negative = !text.empty() && text[0] == '-';
+  const std::string digits = negative ? text.substr(1) : text;
+  if (digits.empty() || digits.size() > 20 || digits.find_first_not_of("0123456789") != std::string::npos) return false;
+  errno = 0;
+  const unsigned long long magnitude = std::strtoull(digits.c_str(), nullptr, 10);
+  if (errno == ERANGE) return false;
+  if (negative) {
+    if (magnitude == 0) {
+      *value = 0;
+      return lo <= 0;
+    }
+    if (lo >= 0 || magnitude > static_cast<unsigned long long>(-(lo + 1)) + 1) return false;
+    *value = static_cast<unsigned long long>(-static_cast<long long>(magnitude - 1) - 1);  // two's complement
+    return true;
+  }
+  if (magnitude > hi || (lo > 0 && magnitude < static_cast<unsigned long long>(lo))) return false;
+  *value = magnitude;
+  return true;
+}
+
+namespace {
+
+// Every integer option of kfx goes through here: a whole number in [lo, hi] or a usage error naming the option
+// and the range (no wrap-around, no silent clamping, no exponent or fraction).
+template <typename T>
+CLI::Option* AddIntegerOption(CLI::App* app, const std::string& names, T& target, long long lo, unsigned long long hi,
+                              const std::string& help) {
+  static_assert(std::is_integral<T>::value, "AddIntegerOption: integer targets only");
+  CLI::Option* opt = app->add_option(names, help);
+  opt->type_name("INT");
+  opt->each([&target, lo, hi](const std::string& text) {
+    unsigned long long v = 0;
+    if (!ParseIntegerOption(text, lo, hi, &v)) {
+      // CLI11 prefixes the option's name ("--seed: expected ...").
+      throw CLI::ValidationError("expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                                 "], got '" + text + "'");
+    }
+    target = text[0] == '-' ? static_cast<T>(static_cast<long long>(v)) : static_cast<T>(v);
+  });
+  return opt;
+}
+
+constexpr unsigned long long kMaxInt = 2000000000ULL;
+constexpr unsigned long long kMaxU64 = std::numeric_limits<std::uint64_t>::max();
+
+}  // namespace
+
 struct CommandLineParser::Impl {
   CLI::App app{"kfx: Kalman filtering for large and infinite-dimensional linear systems"};
   CommandLine args;  // the options write here
@@ -37,8 +91,8 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
   SimulateArgs& sim = out->sim;
   auto* c_sim = app.add_subcommand("simulate", "Simulate states and measurements of a model");
   c_sim->add_option("model", sim.model, "Model file (JSON, docs/formats.md)")->required();
-  c_sim->add_option("--steps", sim.steps, "Number of steps T")->check(CLI::Range(0, 2000000000));
-  c_sim->add_option("--seed", sim.seed, "Random seed");
+  AddIntegerOption(c_sim, "--steps", sim.steps, 0, kMaxInt, "Number of steps T");
+  AddIntegerOption(c_sim, "--seed", sim.seed, 0, kMaxU64, "Random seed");
   c_sim->add_option("-o,--out", sim.out, "Output directory (x.npy: (T+1, n), y.npy: (T, m))")->required();
   c_sim->add_flag("--csv", sim.csv, "Write CSV instead of .npy");
 
@@ -66,11 +120,10 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
                          "optionally exact vs Monte Carlo MSE");
   c_ana->add_option("model", ana.model, "True model file")->required();
   c_ana->add_option("--design", ana.design, "Design the filter on this model instead (mismatch study)");
-  c_ana->add_option("--monte-carlo", ana.monte_carlo, "Also compare exact and Monte Carlo MSE with this many runs")
-      ->check(CLI::Range(0, 2000000000));
-  c_ana->add_option("--steps", ana.steps, "Horizon of the exact/Monte Carlo comparison")
-      ->check(CLI::Range(1, 2000000000));
-  c_ana->add_option("--seed", ana.seed, "Monte Carlo seed");
+  AddIntegerOption(c_ana, "--monte-carlo", ana.monte_carlo, 0, kMaxInt,
+                   "Also compare exact and Monte Carlo MSE with this many runs");
+  AddIntegerOption(c_ana, "--steps", ana.steps, 1, kMaxInt, "Horizon of the exact/Monte Carlo comparison");
+  AddIntegerOption(c_ana, "--seed", ana.seed, 0, kMaxU64, "Monte Carlo seed");
   c_ana->add_option("--json", ana.json, "Write the results as JSON");
 
   MismatchArgs& mis = out->mis;
@@ -101,10 +154,8 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
       ->required();
   c_bd->add_option("--filter", bd.filter, "block-diagonal (default) or banded")
       ->check(CLI::IsMember(BlockDiagFilterChoices()));
-  c_bd->add_option("--granule", bd.granule, "Subsystems per partition unit (default 1024)")
-      ->check(CLI::Range(1L, 1000000000L));
-  c_bd->add_option("--steps", bd.steps, "Number of steps (default: all rows of the data)")
-      ->check(CLI::Range(0, 2000000000));
+  AddIntegerOption(c_bd, "--granule", bd.granule, 1, 1000000000ULL, "Subsystems per partition unit (default 1024)");
+  AddIntegerOption(c_bd, "--steps", bd.steps, 0, kMaxInt, "Number of steps (default: all rows of the data)");
 }
 
 int CommandLineParser::Parse(int argc, const char* const* argv, CommandLine* out) {

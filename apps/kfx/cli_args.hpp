@@ -62,6 +62,11 @@ const std::vector<std::string>& FilterFormChoices();
 /// kfx::CoupledFilterKind values the distributed job runs (checked by the same test).
 const std::vector<std::string>& BlockDiagFilterChoices();
 
+/// The one rule for every integer option: `text` is a whole number in [lo, hi] written in decimal digits (a leading
+/// '-' only if lo < 0); sets *value (two's complement for a negative one) and returns true, else returns false.
+/// Used by the parser for --steps, --seed, --monte-carlo, --granule (and any later integer option).
+bool ParseIntegerOption(const std::string& text, long long lo, unsigned long long hi, unsigned long long* value);
+
 /// The parser of the kfx command line (CLI11), built once and reusable: each Parse() starts from
 /// the default arguments.
 class CommandLineParser {

@@ -4,9 +4,11 @@
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "commands.hpp"
 #include "filter_form.hpp"
+#include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "output.hpp"
@@ -27,11 +29,30 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
   opt.progress = progress.callback();
   const FilterRun run = RunFilter(model, y, opt);
   progress.Finish();
-  MakeDir(a.out);
+  std::optional<SmootherRun> sm;
+  if (smooth) sm = RtsSmooth(model, run);
+  // Estimates and covariances that overflowed are an error, not files (innovations may hold NaN: missing data).
+  auto require_finite = [](const char* name, const TimeSeries& ts) {
+    if (!ts.allFinite()) {
+      throw NumericalError(std::string(name) +
+                           ": not finite (the filter overflowed; try --form sqrt or check the "
+                           "model's scaling); nothing written");
+    }
+  };
+  if (smooth) {
+    require_finite("x_smooth", sm->x);
+    require_finite("P_smooth_diag", sm->P_diag);
+  } else {
+    require_finite("x_filt", run.x_filt);
+    require_finite("P_filt_diag", run.P_filt_diag);
+    require_finite("x_pred", run.x_pred);
+    require_finite("P_pred_diag", run.P_pred_diag);
+  }
+  OutputDirectory out(a.out, "summary.json");
   const std::string ext = a.csv ? ".csv" : ".npy";
   std::vector<std::string> written;
   auto write = [&](const std::string& name, const TimeSeries& ts) {
-    WriteTimeSeries(Join(a.out, name + ext), ts);
+    WriteTimeSeries(out.Path(name + ext), ts);
     written.push_back(name + ext);
   };
   long missing = 0;
@@ -65,12 +86,11 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
     write("P_pred_diag", run.P_pred_diag);
     write("innovations", run.innovations);
   } else {
-    const SmootherRun sm = RtsSmooth(model, run);
-    write("x_smooth", sm.x);
-    write("P_smooth_diag", sm.P_diag);
+    write("x_smooth", sm->x);
+    write("P_smooth_diag", sm->P_diag);
   }
   summary["files"] = written;
-  WriteText(Join(a.out, "summary.json"), summary.dump(2));
+  out.Commit(summary.dump(2));  // the completion marker, last
   std::cout << (smooth ? "smoothed " : "filtered ") << y.rows() << " steps (n = " << model.state_dim()
             << ", m = " << model.meas_dim() << ", " << missing << " missing entries)\n"
             << "  log-likelihood " << std::setprecision(10) << run.log_likelihood << "\n  wrote";

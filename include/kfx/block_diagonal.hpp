@@ -54,6 +54,15 @@ CoupledStep MakeIdenticalCoupledStep(Eigen::Index n, const Eigen::MatrixXd& F, c
                                      const Eigen::MatrixXd& V, const Eigen::MatrixXd& R, const Eigen::MatrixXd& g,
                                      const Eigen::MatrixXd& U);
 
+/// Missing measurements (NaN entries of y, as everywhere in kfx): *masked is s with the row of H^(i) of each
+/// missing component set to zero and that component's correlations in R^(i) dropped (its variance kept), and
+/// *y_masked is y with each NaN set to 0. A measurement that is pure noise, uncorrelated with the others, carries
+/// no information, so every filter's update on (masked, y_masked) is its update on the observed components alone
+/// (for the Kalman filter: the gain's columns of the missing components are 0). Returns false, leaving the outputs
+/// alone, when y has no NaN. @throws kfx::Error naming y for an infinite entry or a length other than n d.
+bool MaskMissingMeasurements(const CoupledStep& s, const Eigen::VectorXd& y, CoupledStep* masked,
+                             Eigen::VectorXd* y_masked);
+
 /// Checks shapes (n subsystems of c states, d measurements, r inputs), finiteness, V_i and U
 /// symmetric PSD, R_i symmetric PD. @throws kfx::Error naming the matrix (and block) at fault.
 void ValidateCoupledStep(const CoupledStep& s, Eigen::Index n, Eigen::Index c, Eigen::Index d, Eigen::Index r,
@@ -222,7 +231,9 @@ class CoupledFilter {
  public:
   /// @param x0 length n c; @param P0_blocks c x (n c) packed (the full filter starts from blockdiag).
   CoupledFilter(CoupledFilterKind kind, Eigen::VectorXd x0, const Eigen::MatrixXd& P0_blocks);
-  /// One step with the measurement y (length n d). @throws kfx::Error on shape mismatch or NaN/Inf in y.
+  /// One step with the measurement y (length n d); a NaN entry is a missing measurement, skipped in the
+  /// update as the Kalman filter skips it (MaskMissingMeasurements). @throws kfx::Error on shape mismatch or
+  /// an infinite entry of y.
   void Step(const CoupledStep& s, const Eigen::VectorXd& y);
   /// One step given the innovation directly (extended filters: nu = y - h(F x)), with the step's
   /// linearized H and R. The state moves to F x + K nu.

@@ -34,6 +34,29 @@ class AtomicOutputFile {
   bool committed_ = false;
 };
 
+/// A directory of outputs that holds one complete run or is visibly incomplete (the one mechanism of every
+/// command that writes a directory: filter, smooth, simulate, blockdiag on any number of ranks). The owner's
+/// constructor creates the directory and removes its completion marker (summary.json, metadata.json: the file
+/// that lists the run's outputs) before any output is written; each output goes through AtomicOutputFile; Commit
+/// writes the marker last. A directory without its marker is an incomplete run, whatever else it holds; a
+/// marker lists only files of its own run, complete. A non-owner (an MPI rank other than 0) only makes sure the
+/// directory exists and writes its outputs; the owner commits after every writer has finished.
+class OutputDirectory {
+ public:
+  /// @throws kfx::Error "<option>: cannot create directory ..." or "... cannot remove the completion marker"
+  /// (`option` names the argument that gave the directory, e.g. "-o/--out").
+  OutputDirectory(std::string dir, std::string marker, bool owner = true, const std::string& option = "-o/--out");
+  /// dir/name.
+  std::string Path(const std::string& name) const;
+  const std::string& dir() const { return dir_; }
+  /// Writes the marker (text and a newline) atomically, last. @throws kfx::Error if it cannot, or if not the owner.
+  void Commit(const std::string& marker_text);
+
+ private:
+  std::string dir_, marker_;
+  bool owner_;
+};
+
 /// A dense array read from a .npy file, converted to double, stored in C (row-major) order.
 struct NpyArray {
   std::vector<std::int64_t> shape;

@@ -50,7 +50,9 @@ void ValidateStep(const ModelStep& step, Eigen::Index n, Eigen::Index m, const s
 using StepPtr = std::shared_ptr<const ModelStep>;
 
 /// A validated model: time-invariant (one step), time-varying (a sequence) or given by a
-/// callback k -> step. Copies are cheap (steps are shared, immutable).
+/// callback k -> step. Copies are cheap (steps are shared, immutable). It has at least one state and one
+/// measurement: n = 0 or m = 0 (a 0 x 0 A, a C with no rows) throws kfx::Error naming A or C (n, m for a
+/// callback model) in every constructor, so model files and the Python package reject them too.
 class Model {
  public:
   using StepFunction = std::function<ModelStep(int k)>;

@@ -45,7 +45,8 @@ struct SimulationOptions {
 };
 
 /// Draws x_0 ~ N(m0, P0) and then x_k, y_k for k = 1..T.
-/// @throws kfx::Error if options.steps exceeds the model's horizon.
+/// @throws kfx::Error if options.steps exceeds the model's horizon; kfx::NumericalError naming the step if the
+/// trajectory stops being finite (a diverging model overflows): never a trajectory holding inf or NaN.
 Trajectory Simulate(const Model& model, const SimulationOptions& options = SimulationOptions());
 
 /// Draws the trajectory with an Rng the caller owns (used by batch and Monte Carlo runners);

@@ -71,12 +71,12 @@ void RequirePositiveSemidefinite(const std::string& name, const Eigen::Ref<const
   RequireSymmetric(name, m);
   if (m.size() == 0) return;
   const double scale = std::max(1.0, m.diagonal().cwiseAbs().maxCoeff());
-  Eigen::MatrixXd shifted = 0.5 * (m + m.transpose());
+  Eigen::MatrixXd shifted = 0.5 * m + 0.5 * m.transpose();
   shifted.diagonal().array() += tol * scale;
   Eigen::LLT<Eigen::MatrixXd> llt(shifted);
   if (llt.info() != Eigen::Success) {
     const double min_eig =
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly)
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * m + 0.5 * m.transpose(), Eigen::EigenvaluesOnly)
             .eigenvalues()
             .minCoeff();
     std::ostringstream os;
@@ -89,7 +89,7 @@ void RequirePositiveDefinite(const std::string& name, const Eigen::Ref<const Eig
   RequireSymmetric(name, m);
   if (m.size() == 0) return;
   const double scale = m.diagonal().cwiseAbs().maxCoeff();
-  Eigen::LLT<Eigen::MatrixXd> llt(0.5 * (m + m.transpose()));
+  Eigen::LLT<Eigen::MatrixXd> llt(0.5 * m + 0.5 * m.transpose());
   bool ok = llt.info() == Eigen::Success && scale > 0;
   if (ok) {
     const double min_pivot = llt.matrixLLT().diagonal().cwiseAbs2().minCoeff();
@@ -97,7 +97,7 @@ void RequirePositiveDefinite(const std::string& name, const Eigen::Ref<const Eig
   }
   if (!ok) {
     const double min_eig =
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly)
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * m + 0.5 * m.transpose(), Eigen::EigenvaluesOnly)
             .eigenvalues()
             .minCoeff();
     std::ostringstream os;
@@ -120,7 +120,7 @@ void Symmetrize(Eigen::Ref<Eigen::MatrixXd> m) {
   const Eigen::Index n = m.rows();
   for (Eigen::Index j = 0; j < n; ++j) {
     for (Eigen::Index i = j + 1; i < n; ++i) {
-      const double v = 0.5 * (m(i, j) + m(j, i));
+      const double v = 0.5 * m(i, j) + 0.5 * m(j, i);  // no overflow of the sum near DBL_MAX
       m(i, j) = v;
       m(j, i) = v;
     }

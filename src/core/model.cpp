@@ -32,6 +32,23 @@ ModelStep MakeStepWithNoiseInput(Eigen::MatrixXd A, Eigen::MatrixXd B, Eigen::Ma
   return s;
 }
 
+namespace {
+
+// Zero dimensions are rejected here, at the one validation every model passes (library, model files, Python):
+// a model has at least one state and one measurement (issue 20, class 3).
+void RequireDimensions(Eigen::Index n, Eigen::Index m, const std::string& a_name, const std::string& c_name) {
+  if (n < 1) {
+    throw Error(a_name + ": expected at least one state (n >= 1), got n = " + std::to_string(n) +
+                " (zero dimensions are not supported)");
+  }
+  if (m < 1) {
+    throw Error(c_name + ": expected at least one measurement (m >= 1), got m = " + std::to_string(m) +
+                " (zero dimensions are not supported)");
+  }
+}
+
+}  // namespace
+
 void ValidateStep(const ModelStep& s, Eigen::Index n, Eigen::Index m, const std::string& label) {
   RequireShape(label + "A", s.A, n, n);
   RequireFinite(label + "A", s.A);
@@ -57,6 +74,7 @@ void ValidateStep(const ModelStep& s, Eigen::Index n, Eigen::Index m, const std:
 Model::Model(ModelStep step, Eigen::VectorXd m0, Eigen::MatrixXd P0)
     : kind_(Kind::kInvariant), n_(step.A.rows()), m_(step.C.rows()), m0_(std::move(m0)), P0_(std::move(P0)) {
   RequireSquare("A", step.A);
+  RequireDimensions(n_, m_, "A", "C");
   ValidateStep(step, n_, m_);
   steps_.push_back(std::make_shared<const ModelStep>(std::move(step)));
   ValidatePrior();
@@ -68,6 +86,7 @@ Model::Model(std::vector<ModelStep> steps, Eigen::VectorXd m0, Eigen::MatrixXd P
   RequireSquare("step 1: A", steps[0].A);
   n_ = steps[0].A.rows();
   m_ = steps[0].C.rows();
+  RequireDimensions(n_, m_, "step 1: A", "step 1: C");
   horizon_ = static_cast<int>(steps.size());
   steps_.reserve(steps.size());
   for (size_t i = 0; i < steps.size(); ++i) {
@@ -85,7 +104,7 @@ Model::Model(Eigen::Index n, Eigen::Index m, StepFunction function, Eigen::Vecto
       function_(std::move(function)),
       m0_(std::move(m0)),
       P0_(std::move(P0)) {
-  if (n < 0 || m < 0) throw Error("n, m: expected non-negative dimensions");
+  RequireDimensions(n, m, "n", "m");
   if (!function_) throw Error("function: expected a callable, got an empty std::function");
   ValidatePrior();
 }

@@ -46,7 +46,8 @@ std::uint64_t Rng::StreamSeed(std::uint64_t seed, std::uint64_t stream) {
 Eigen::MatrixXd PsdFactor(const Eigen::Ref<const Eigen::MatrixXd>& M) {
   const Eigen::Index n = M.rows();
   if (n == 0) return Eigen::MatrixXd(0, 0);
-  const Eigen::MatrixXd sym = 0.5 * (M + M.transpose());
+  // 0.5 M + 0.5 M^T, not 0.5 (M + M^T): the sum overflows for entries above DBL_MAX / 2 (Q = 1e308).
+  const Eigen::MatrixXd sym = 0.5 * M + 0.5 * M.transpose();
   Eigen::LDLT<Eigen::MatrixXd> ldlt(sym);
   const double scale = std::max(sym.diagonal().cwiseAbs().maxCoeff(), 1e-300);
   if (ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() >= -1e-12 * scale) {
@@ -70,6 +71,7 @@ Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& r
   tr.y.resize(T, m);
   Eigen::VectorXd x = model.m0() + PsdFactor(model.P0()) * rng.Normal(n);
   tr.x.row(0) = x.transpose();
+  if (!x.allFinite()) throw NumericalError("simulate: the initial state x_0 is not finite (P0 overflows)");
   // Factors are cached per step object: a time-invariant model factors Q and R once.
   StepPtr cached;
   Eigen::MatrixXd Fw, Fv;
@@ -88,6 +90,10 @@ Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& r
     x.swap(next);
     tr.x.row(k) = x.transpose();
     tr.y.row(k - 1) = (s->C * x + Fv * rng.Normal(m)).transpose();
+    if (!tr.x.row(k).allFinite() || !tr.y.row(k - 1).allFinite()) {
+      throw NumericalError("simulate: the trajectory is not finite at step " + std::to_string(k) + " of " +
+                           std::to_string(T) + " (the state overflows: the model diverges; simulate fewer steps)");
+    }
   }
   return tr;
 }

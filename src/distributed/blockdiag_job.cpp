@@ -33,13 +33,45 @@ std::string SliceName(const std::string& what, Index first, Index end) {
   return what + "." + std::to_string(first) + "-" + std::to_string(end) + ".npy";
 }
 
-// Every rank learns whether any rank failed (one reduction of a flag), so no rank waits in a later
-// reduction for a rank that has stopped.
-void AgreeOnFailure(const std::exception_ptr& error, const Reducer& reduce) {
-  std::vector<double> flag = {error ? 1.0 : 0.0, 0.0};
-  if (reduce) reduce(flag);
-  if (error) std::rethrow_exception(error);
-  if (CompensatedValue(flag.data()) != 0.0) throw Error("blockdiag: failed on another rank (see its message)");
+bool IsOtherRanksFailure(const std::exception_ptr& error) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const std::exception& e) {
+    return std::string(e.what()).find("on another rank") != std::string::npos;
+  } catch (...) {
+    return false;
+  }
+}
+
+// Every rank learns which ranks failed (one reduction of a flag per rank), so no rank waits in a later
+// reduction for a rank that has stopped, and only the lowest rank with an error of its own reports it: the
+// others throw "failed on another rank", which the CLI does not print (one message for the whole job).
+// Every rank calls this at the same points (after reading, after filtering, after writing, after the marker).
+void AgreeOnFailure(const std::exception_ptr& error, int rank, int ranks, const Reducer& reduce) {
+  std::vector<double> flags(2 * static_cast<size_t>(ranks), 0.0);
+  const bool own = error && !IsOtherRanksFailure(error);
+  if (error) flags[2 * static_cast<size_t>(rank)] = own ? 2.0 : 1.0;
+  if (reduce) reduce(flags);
+  int first_own = -1;
+  bool any = false;
+  for (int p = 0; p < ranks; ++p) {
+    const double f = CompensatedValue(flags.data() + 2 * p);
+    any = any || f != 0.0;
+    if (f == 2.0 && first_own < 0) first_own = p;
+  }
+  if (error && (own ? first_own == rank : first_own < 0 && rank == 0)) std::rethrow_exception(error);
+  if (any) throw Error("blockdiag: failed on another rank (see its message)");
+}
+
+// Runs `what`, keeping its exception for AgreeOnFailure.
+template <typename F>
+void Try(std::exception_ptr* error, F&& what) {
+  if (*error) return;
+  try {
+    what();
+  } catch (...) {
+    *error = std::current_exception();
+  }
 }
 
 }  // namespace
@@ -74,7 +106,9 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
       throw Error("steps: expected at most " + std::to_string(rows) + " (the rows of " + job.data + "), got " +
                   std::to_string(sum.steps));
     }
-    fs::create_directories(job.out_dir);
+    // Rank 0 removes the previous run's metadata.json before any rank writes (the reduction in AgreeOnFailure
+    // orders it before every write); the others only make sure the directory exists.
+    OutputDirectory(job.out_dir, "metadata.json", rank == 0, "out_dir");
     if (sum.count > 0) {
       slice = std::make_unique<CoupledSystem>(LoadCoupledModelSlice(job.model, sum.first, sum.count));
       const NpyArray a = ReadNpySlice(job.data, 1, sum.first * h.d, sum.count * h.d);
@@ -83,7 +117,7 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
   } catch (...) {
     error = std::current_exception();
   }
-  AgreeOnFailure(error, reduce);
+  AgreeOnFailure(error, rank, ranks, reduce);
 
   const auto t0 = std::chrono::steady_clock::now();
   SlicedRun run;
@@ -110,23 +144,32 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
     error = std::current_exception();
   }
   sum.seconds_filter = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  AgreeOnFailure(error, reduce);
+  AgreeOnFailure(error, rank, ranks, reduce);
 
   const Index end = sum.first + sum.count, c = h.c;
   const fs::path dir(job.out_dir);
-  WriteNpyMatrix((dir / SliceName("x_filt", sum.first, end)).string(), run.x_filt);
-  std::vector<double> P(static_cast<size_t>(sum.count * c * c));
-  for (Index i = 0; i < sum.count; ++i) {
-    for (Index p = 0; p < c; ++p) {
-      for (Index q = 0; q < c; ++q) P[static_cast<size_t>((i * c + p) * c + q)] = run.P_filt(p, i * c + q);
+  Try(&error, [&] {
+    if (!run.x_filt.allFinite() || !run.P_filt.allFinite()) {
+      throw NumericalError("blockdiag: the estimates of subsystems [" + std::to_string(sum.first) + ", " +
+                           std::to_string(end) + ") are not finite (the filter overflowed); nothing written");
     }
-  }
-  WriteNpy((dir / SliceName("P_filt", sum.first, end)).string(), {sum.count, c, c}, P.data());
-  if (rank == 0) {
-    if (job.kind == CoupledFilterKind::kBlockDiagonal) {
+    WriteNpyMatrix((dir / SliceName("x_filt", sum.first, end)).string(), run.x_filt);
+    std::vector<double> P(static_cast<size_t>(sum.count * c * c));
+    for (Index i = 0; i < sum.count; ++i) {
+      for (Index p = 0; p < c; ++p) {
+        for (Index q = 0; q < c; ++q) P[static_cast<size_t>((i * c + p) * c + q)] = run.P_filt(p, i * c + q);
+      }
+    }
+    WriteNpy((dir / SliceName("P_filt", sum.first, end)).string(), {sum.count, c, c}, P.data());
+    if (rank == 0 && job.kind == CoupledFilterKind::kBlockDiagonal) {
       WriteNpyMatrix((dir / "coupling_mean.npy").string(), run.coupling);
       WriteNpyMatrix((dir / "coupling_cov.npy").string(), run.coupling_cov);
     }
+  });
+  // The completion marker only when every rank has written its slice.
+  AgreeOnFailure(error, rank, ranks, reduce);
+  Try(&error, [&] {
+    if (rank != 0) return;
     json meta;
     meta["format"] = kOutputFormat;
     meta["filter"] = ToString(job.kind);
@@ -143,10 +186,9 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
                         {"P_filt", SliceName("P_filt", f, e)}});
     }
     meta["slices"] = slices;
-    std::ofstream out(dir / "metadata.json");
-    out << meta.dump(1) << "\n";
-    if (!out) throw Error((dir / "metadata.json").string() + ": cannot write");
-  }
+    OutputDirectory(job.out_dir, "metadata.json", /*owner=*/true, "out_dir").Commit(meta.dump(1));
+  });
+  AgreeOnFailure(error, rank, ranks, reduce);
   return sum;
 }
 
@@ -158,15 +200,29 @@ TimeSeries ReadBlockDiagStates(const std::string& out_dir) {
   const Index n = detail::JsonIndex(meta, path, "n", 1), c = detail::JsonIndex(meta, path, "c", 1);
   const Index T = detail::JsonIndex(meta, path, "steps", 0);
   TimeSeries x(T + 1, n * c);
-  for (const json& sl : meta.at("slices")) {
-    const Index f = sl.at("first").get<Index>(), m = sl.at("count").get<Index>();
+  const auto slices = meta.find("slices");
+  if (slices == meta.end() || !slices->is_array()) throw Error(path + ": field 'slices': expected an array");
+  Index covered = 0;
+  for (const json& sl : *slices) {
+    // Each slice is checked field by field (a malformed one is a kfx::Error naming it, not a JSON exception).
+    const auto file = sl.is_object() ? sl.find("x_filt") : sl.end();
+    if (!sl.is_object() || file == sl.end() || !file->is_string()) {
+      throw Error(path + ": slice " + sl.dump() + ": expected {\"first\", \"count\", \"x_filt\", ...}");
+    }
+    const Index f = detail::JsonIndex(sl, path, "first", 0), m = detail::JsonIndex(sl, path, "count", 0);
+    if (f > n || m > n - f) {
+      throw Error(path + ": slice " + sl.dump() + ": expected a range within the n = " + std::to_string(n) +
+                  " subsystems");
+    }
+    covered += m;
     if (m == 0) continue;
-    const MatrixXd part = ReadNpyMatrix((dir / sl.at("x_filt").get<std::string>()).string());
-    if (part.rows() != T + 1 || part.cols() != m * c || f < 0 || f + m > n) {
+    const MatrixXd part = ReadNpyMatrix((dir / file->get<std::string>()).string());
+    if (part.rows() != T + 1 || part.cols() != m * c) {
       throw Error(path + ": slice " + sl.dump() + " does not match its file");
     }
     x.middleCols(f * c, m * c) = part;
   }
+  if (covered != n) throw Error(path + ": expected slices covering the n = " + std::to_string(n) + " subsystems");
   return x;
 }
 

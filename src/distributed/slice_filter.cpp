@@ -22,6 +22,8 @@ struct CoupledFilterSlice::Work {
   BlockDiagonalCovarianceStep st;
   MatrixXd Ng, U;
   Index d = 0, r = 0;
+  CoupledStep masked;  // the step with missing measurements masked (MaskMissingMeasurements)
+  VectorXd y_masked;
 };
 
 namespace {
@@ -40,7 +42,8 @@ CoupledFilterSlice::CoupledFilterSlice(CoupledFilterKind kind, Index first, Inde
     throw Error(std::string("kind: expected block-diagonal or banded for a distributed filter, got ") + ToString(kind));
   }
   if (granule < 1) throw Error("granule: expected at least 1 subsystem, got " + std::to_string(granule));
-  if (first < 0 || first % granule != 0) {
+  // An empty slice (a rank with no subsystems: fewer granules than ranks) starts at n, wherever that is.
+  if (first < 0 || (P0_blocks.cols() > 0 && first % granule != 0)) {
     throw Error("first: expected a multiple of the granule " + std::to_string(granule) + ", got " +
                 std::to_string(first));
   }
@@ -53,17 +56,20 @@ CoupledFilterSlice::CoupledFilterSlice(CoupledFilterKind kind, Index first, Inde
   work_ = std::make_shared<Work>();
 }
 
-void CoupledFilterSlice::Begin(const CoupledStep& s, const VectorXd& y) {
-  const Index n = count(), d = s.d(), r = s.r();
-  if (s.c() != c_ || s.n() != n) {
+void CoupledFilterSlice::Begin(const CoupledStep& step, const VectorXd& measured) {
+  const Index n = count(), d = step.d(), r = step.r();
+  if (step.c() != c_ || step.n() != n) {
     throw Error("step: expected the slice's " + std::to_string(n) + " subsystems of " + std::to_string(c_) +
-                " states, got " + std::to_string(s.n()) + " of " + std::to_string(s.c()));
+                " states, got " + std::to_string(step.n()) + " of " + std::to_string(step.c()));
   }
-  RequireShape("step G", s.G, n * c_, r);
-  RequireShape("step U", s.U, r, r);
-  RequireVector("y", y, n * d);
-  RequireFinite("y", y);
+  RequireShape("step G", step.G, n * c_, r);
+  RequireShape("step U", step.U, r, r);
   Work& w = *work_;
+  // Missing measurements (NaN) as CoupledFilter::Step skips them; the masked step lives as long as the
+  // step that Finish reads (step_).
+  const bool missing = MaskMissingMeasurements(step, measured, &w.masked, &w.y_masked);
+  const CoupledStep& s = missing ? w.masked : step;
+  const VectorXd& y = missing ? w.y_masked : measured;
   w.d = d;
   w.r = r;
   if (n > 0) {

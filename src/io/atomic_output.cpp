@@ -1,10 +1,12 @@
 // AtomicOutputFile (include/kfx/io.hpp): every file kfx writes goes to a temporary name beside the target
-// and is renamed into place on success (docs/formats.md).
+// and is renamed into place on success (docs/formats.md); OutputDirectory: a directory of outputs is one
+// complete run (its completion marker, written last) or visibly incomplete (no marker).
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -53,6 +55,34 @@ void AtomicOutputFile::Commit() {
     Fail(path_, "cannot rename the written file into place" + detail);
   }
   committed_ = true;
+}
+
+OutputDirectory::OutputDirectory(std::string dir, std::string marker, bool owner, const std::string& option)
+    : dir_(std::move(dir)), marker_(std::move(marker)), owner_(owner) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec || !fs::is_directory(dir_)) {
+    throw Error(option + ": cannot create directory '" + dir_ + "'" + (ec ? ": " + ec.message() : std::string()));
+  }
+  if (!owner_) return;
+  // The old run's marker goes first: from here until Commit the directory is visibly incomplete.
+  const fs::path marker_path = fs::path(dir_) / marker_;
+  if (fs::is_directory(marker_path, ec))
+    Fail(marker_path.string(), "expected a file (the completion marker), got a directory");
+  fs::remove(marker_path, ec);
+  if (ec) Fail(marker_path.string(), "cannot remove the completion marker of the previous run: " + ec.message());
+}
+
+std::string OutputDirectory::Path(const std::string& name) const {
+  return (std::filesystem::path(dir_) / name).string();
+}
+
+void OutputDirectory::Commit(const std::string& marker_text) {
+  if (!owner_) throw Error(Path(marker_) + ": only the directory's owner writes the completion marker");
+  AtomicOutputFile file(Path(marker_));
+  file.stream() << marker_text << "\n";
+  file.Commit();
 }
 
 }  // namespace kfx

@@ -3,7 +3,6 @@
 #include "kfx/coupled_model_file.hpp"
 
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -44,8 +43,16 @@ MatrixXd FieldBlocks(const std::string& path, const json& j, const std::string& 
   const std::string file = detail::JsonNpyReference(v, where);
   NpyArray arr;
   try {
+    // The header alone first: the file's first dimension must be the model's n (a slice of a longer or
+    // shorter array is not this model's field).
+    const Index rows = ReadNpySlice(file, 1, 0, 0).shape[0];
+    if (rows != n) {
+      where.Fail("expected " + std::to_string(n) + " subsystems (the first dimension of " + file + "), got " +
+                 std::to_string(rows));
+    }
     arr = ReadNpySlice(file, 0, first, count);
   } catch (const Error& e) {
+    if (std::string(e.what()).find(path) == 0) throw;  // already names the file and field
     where.Fail(e.what());
   }
   const bool vector_field = b == 1;
@@ -66,10 +73,7 @@ MatrixXd FieldBlocks(const std::string& path, const json& j, const std::string& 
   return m;
 }
 
-}  // namespace
-
-CoupledModelHeader ReadCoupledModelHeader(const std::string& path) {
-  const json j = detail::ReadJsonObject(path, kFormatName);
+CoupledModelHeader HeaderOf(const json& j, const std::string& path) {
   detail::CheckJsonFormat(j, path, kFormatName, /*required=*/true);
   CoupledModelHeader h;
   h.n = detail::JsonIndex(j, path, "n", 1);
@@ -81,13 +85,19 @@ CoupledModelHeader ReadCoupledModelHeader(const std::string& path) {
   return h;
 }
 
+}  // namespace
+
+CoupledModelHeader ReadCoupledModelHeader(const std::string& path) {
+  return HeaderOf(detail::ReadJsonObject(path, kFormatName), path);
+}
+
 CoupledSystem LoadCoupledModelSlice(const std::string& path, Index first, Index count) {
-  const CoupledModelHeader h = ReadCoupledModelHeader(path);
-  if (first < 0 || count < 1 || first + count > h.n) {
-    throw Error(path + ": slice [" + std::to_string(first) + ", " + std::to_string(first + count) +
-                ") is outside the model's " + std::to_string(h.n) + " subsystems");
+  const json j = detail::ReadJsonObject(path, kFormatName);  // parsed once
+  const CoupledModelHeader h = HeaderOf(j, path);
+  if (first < 0 || count < 1 || first > h.n - count) {
+    throw Error(path + ": slice [" + std::to_string(first) + ", " + std::to_string(first) + " + " +
+                std::to_string(count) + ") is outside the model's " + std::to_string(h.n) + " subsystems");
   }
-  const json j = detail::ReadJsonObject(path, kFormatName);
   const Index c = h.c, d = h.d, r = h.r;
   CoupledStep s;
   s.F = FieldBlocks(path, j, "F", h.n, c, c, first, count);
@@ -150,10 +160,9 @@ void SaveCoupledModel(const std::string& path, const CoupledSystem& system) {
     U.push_back(row);
   }
   j["U"] = U;
-  std::ofstream out(path);
-  if (!out) throw Error(path + ": cannot open file for writing");
-  out << j.dump(1) << "\n";
-  if (!out) throw Error(path + ": cannot write");
+  AtomicOutputFile out(path);  // the JSON last, atomically: it is what makes the .npy files a model
+  out.stream() << j.dump(1) << "\n";
+  out.Commit();
 }
 
 }  // namespace kfx

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -77,11 +78,6 @@ bool ParseNumber(const std::string& field, double* value) {
   return r.ec == std::errc() && r.ptr == last;
 }
 
-bool IsNumberText(const std::string& field) {
-  double v;
-  return !field.empty() && ParseNumber(field, &v);
-}
-
 std::string FormatNumber(double x) {
   if (std::isnan(x)) return "nan";
   char buf[64];
@@ -89,60 +85,96 @@ std::string FormatNumber(double x) {
   return std::string(buf, r.ptr);
 }
 
+// A field that reads as a number or tries to: a digit or '.' after an optional sign, or inf / infinity / nan
+// in any case (so "1e999" and "0x10" are malformed numbers, never column names).
+bool LooksNumeric(const std::string& field) {
+  std::size_t i = 0;
+  if (i < field.size() && (field[i] == '+' || field[i] == '-')) ++i;
+  if (i < field.size() && (std::isdigit(static_cast<unsigned char>(field[i])) || field[i] == '.')) return true;
+  std::string rest = field.substr(i);
+  std::transform(rest.begin(), rest.end(), rest.begin(), [](unsigned char c) { return std::tolower(c); });
+  return rest == "inf" || rest == "infinity" || rest == "nan" || rest.compare(0, 4, "nan(") == 0;
+}
+
+// The lines of a CSV text: ended by "\n", "\r\n" or a lone "\r" (classic Mac files), the UTF-8 byte
+// order mark dropped.
+std::vector<std::string> SplitLines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::size_t start = text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  for (std::size_t i = start; i < text.size(); ++i) {
+    if (text[i] != '\n' && text[i] != '\r') continue;
+    lines.push_back(text.substr(start, i - start));
+    if (text[i] == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
+    start = i + 1;
+  }
+  if (start < text.size()) lines.push_back(text.substr(start));
+  return lines;
+}
+
+[[noreturn]] void FailField(const std::string& path, long long line_no, std::size_t column, const std::string& field) {
+  std::string hint;
+  if (field.find_first_of(";\t") != std::string::npos) hint = " (fields are separated by ',' only)";
+  Fail(path, "line " + std::to_string(line_no) + ", column " + std::to_string(column) +
+                 ": expected a number (or nan / empty for a missing value), got '" + field.substr(0, 40) +
+                 (field.size() > 40 ? "...'" : "'") + hint);
+}
+
+// The rules (docs/formats.md): a header is a first line of names (none number-like, not all empty); every other line
+// that is not a '#' comment is a data row with the header's (or the first row's) number of fields, each a
+// number, or empty / nan for a missing value that stays in its row; a blank line inside the data is a row of
+// one empty field (a missing value in a one-column file, a wrong field count otherwise); blank lines before
+// the first and after the last line with text are ignored; at least one data row.
 TimeSeries ReadCsv(const std::string& path, std::vector<std::string>* column_names) {
   errno = 0;
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) Fail(path, "is a directory, expected a CSV file");
+  detail::RequireRegularFile(path, "a CSV file");
   std::ifstream in(path, std::ios::binary);
   if (!in) Fail(path, "cannot open file for reading" + ErrnoDetail());
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) Fail(path, "cannot read file" + ErrnoDetail());
+  const std::vector<std::string> lines = SplitLines(buffer.str());
+  if (lines.empty()) Fail(path, "empty file, expected a CSV time series");
+  auto blank = [](const std::string& l) { return Trim(l).empty(); };
+  std::size_t last = lines.size();
+  while (last > 0 && blank(lines[last - 1])) --last;
   std::vector<std::string> header;
   std::vector<double> values;
   std::size_t columns = 0;
   long long rows = 0;
   long long first_line = 0;  // line number of the line that fixed the column count
-  bool any_line = false;
-  std::string line;
-  for (long long line_no = 1; std::getline(in, line); ++line_no) {
-    any_line = true;
-    if (line_no == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 byte order mark
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const std::string trimmed = Trim(line);
-    if (trimmed.empty() || trimmed[0] == '#') continue;
-    std::vector<std::string> fields = SplitFields(line);
-    const std::string where = "line " + std::to_string(line_no);
+  for (std::size_t i = 0; i < last; ++i) {
+    const long long line_no = static_cast<long long>(i) + 1;
+    const std::string trimmed = Trim(lines[i]);
+    if (!trimmed.empty() && trimmed[0] == '#') continue;
+    if (trimmed.empty() && first_line == 0) continue;
+    std::vector<std::string> fields = SplitFields(lines[i]);
     if (first_line == 0) {
       first_line = line_no;
       columns = fields.size();
-      // A header is a first line with at least one name and no number in it.
-      const bool has_text = std::any_of(fields.begin(), fields.end(), [](const std::string& f) {
-        double v;
-        return !ParseNumber(f, &v);
-      });
-      const bool has_number = std::any_of(fields.begin(), fields.end(), IsNumberText);
-      if (has_text && !has_number) {
+      // Empty names are allowed beside others (pandas writes one for the index column).
+      const bool names = std::none_of(fields.begin(), fields.end(), LooksNumeric) &&
+                         std::any_of(fields.begin(), fields.end(), [](const std::string& f) { return !f.empty(); });
+      if (names) {
+        for (std::size_t j = 0; j < fields.size(); ++j) {
+          if (fields[j].find_first_of(";\t") != std::string::npos) FailField(path, line_no, j + 1, fields[j]);
+        }
         header = std::move(fields);
         continue;
       }
     } else if (fields.size() != columns) {
-      Fail(path, where + ": expected " + std::to_string(columns) + " fields (as line " + std::to_string(first_line) +
-                     "), got " + std::to_string(fields.size()));
+      Fail(path, "line " + std::to_string(line_no) + ", column " +
+                     std::to_string(std::min(fields.size(), columns) + 1) + ": expected " + std::to_string(columns) +
+                     " fields (as line " + std::to_string(first_line) + "), got " + std::to_string(fields.size()));
     }
     for (std::size_t j = 0; j < fields.size(); ++j) {
       double v;
-      if (!ParseNumber(fields[j], &v)) {
-        std::string shown = fields[j].substr(0, 40);
-        Fail(path, where + ", column " + std::to_string(j + 1) +
-                       ": expected a number (or nan / empty for a "
-                       "missing value), got '" +
-                       shown + (fields[j].size() > 40 ? "...'" : "'"));
-      }
+      if (!ParseNumber(fields[j], &v)) FailField(path, line_no, j + 1, fields[j]);
       values.push_back(v);
     }
     ++rows;
   }
-  if (in.bad()) Fail(path, "cannot read file" + ErrnoDetail());
-  if (!any_line) Fail(path, "empty file, expected a CSV time series");
   if (first_line == 0) Fail(path, "no data: the file holds only blank and comment lines");
+  if (rows == 0) Fail(path, "no data rows (a header line alone), expected at least one row");
   if (column_names != nullptr) *column_names = header;
   TimeSeries data(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(columns));
   std::copy(values.begin(), values.end(), data.data());  // row-major, as read
@@ -161,18 +193,17 @@ void WriteCsv(const std::string& path, const TimeSeries& data, const std::vector
       if (name.find_first_of(",\"\r\n") != std::string::npos) {
         Fail(path, label + ": expected a name without ',', '\"' or line breaks, got '" + name + "'");
       }
-      double v;
-      if (Trim(name).empty() || ParseNumber(Trim(name), &v)) {
+      if (Trim(name).empty() || LooksNumeric(Trim(name)) || name.find_first_of(";\t") != std::string::npos) {
         Fail(path, label +
-                       ": expected a name that is not empty and not a number (it would be read back as "
-                       "data), got '" +
+                       ": expected a name that is not empty, not number-like and without ';' or tab (it would "
+                       "not be read back as a name), got '" +
                        name + "'");
       }
       if (j == 0 && Trim(name)[0] == '#') Fail(path, label + ": expected a name not starting with '#'");
     }
-  } else if (data.rows() == 0) {
-    Fail(path, "data: a CSV file without column names needs at least one row");
   }
+  if (data.rows() == 0)
+    Fail(path, "data: expected at least one row (a CSV time series without rows does not read back)");
   if (data.cols() == 0 && data.rows() > 0) Fail(path, "data: expected at least one column for a CSV file");
 
   AtomicOutputFile file(path);

@@ -53,8 +53,7 @@ std::string JsonBrief(const Json& v) {
 
 Json ReadJsonObject(const std::string& path, const std::string& format) {
   errno = 0;
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) FailFile(path, "is a directory, expected " + ObjectExample(format));
+  RequireRegularFile(path, ObjectExample(format));
   std::ifstream in(path, std::ios::binary);
   if (!in) FailFile(path, "cannot open file for reading" + ErrnoDetail());
   std::ostringstream text;

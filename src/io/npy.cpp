@@ -461,6 +461,7 @@ void ReadElements(std::ifstream& in, const std::string& path, const DType& dtype
 }
 
 std::ifstream OpenNpy(const std::string& path) {
+  detail::RequireRegularFile(path, "a .npy file");
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in) Fail(path, "cannot open file for reading" + ErrnoDetail());

@@ -3,6 +3,7 @@
 // enum names (ToString / EnumNames), and each one is parsed with kfx::ParseEnum into the value it names.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -81,6 +82,75 @@ TEST(CliOptions, ParserAcceptsExactlyTheChoices) {
   // Names of the library that the options do not take (a usage error: one line on stderr, exit code 2).
   EXPECT_EQ(ParseArgs({"filter", "m.json", "--data", "y.npy", "-o", "out", "--form", "conventional"}, &cl), 2);
   EXPECT_EQ(ParseArgs({"blockdiag", "m.json", "--data", "y.npy", "-o", "out", "--filter", "full"}, &cl), 2);
+}
+
+// Every integer option (the list is literal, as in cli_args.cpp): in-range values are taken exactly; negative,
+// out-of-range, wrapped, fractional or exponent values are a usage error (CLI11 alone turned --seed -1 into
+// 2^64 - 1 and --seed 18446744073709551616 into 2^64 - 1).
+TEST(CliOptions, EveryIntegerOptionRejectsWhatItCannotHoldExactly) {
+  struct Option {
+    std::vector<std::string> command;
+    std::string name, lowest, highest, below, above;
+  };
+  const std::vector<std::string> sim = {"simulate", "m.json", "-o", "out"};
+  const std::vector<std::string> ana = {"analyze", "m.json"};
+  const std::vector<std::string> bd = {"blockdiag", "m.json", "--data", "y.npy", "-o", "out"};
+  const Option options[] = {
+      {sim, "--steps", "0", "2000000000", "-1", "2000000001"},
+      {sim, "--seed", "0", "18446744073709551615", "-1", "18446744073709551616"},
+      {ana, "--steps", "1", "2000000000", "0", "2000000001"},
+      {ana, "--monte-carlo", "0", "2000000000", "-1", "2000000001"},
+      {ana, "--seed", "0", "18446744073709551615", "-5", "99999999999999999999999"},
+      {bd, "--granule", "1", "1000000000", "0", "1000000001"},
+      {bd, "--steps", "0", "2000000000", "-1", "4294967296"},
+  };
+  CommandLine cl;
+  for (const Option& o : options) {
+    for (const std::string& good : {o.lowest, o.highest}) {
+      std::vector<std::string> args = o.command;
+      args.insert(args.end(), {o.name, good});
+      ASSERT_EQ(ParseArgs(args, &cl), -1) << o.name << " " << good;
+      unsigned long long got = 0;
+      const std::string& cmd = o.command[0];
+      if (cmd == "simulate") got = o.name == "--seed" ? cl.sim.seed : static_cast<unsigned long long>(cl.sim.steps);
+      if (cmd == "analyze") {
+        got = o.name == "--seed"    ? cl.ana.seed
+              : o.name == "--steps" ? static_cast<unsigned long long>(cl.ana.steps)
+                                    : static_cast<unsigned long long>(cl.ana.monte_carlo);
+      }
+      if (cmd == "blockdiag") {
+        got = o.name == "--granule" ? static_cast<unsigned long long>(cl.bd.granule)
+                                    : static_cast<unsigned long long>(cl.bd.steps);
+      }
+      EXPECT_EQ(std::to_string(got), good) << cmd << " " << o.name;
+    }
+    for (const std::string& bad :
+         {o.below, o.above, std::string("1e3"), std::string("2.0"), std::string("0x10"), std::string(" 7"),
+          std::string("7 "), std::string("+7"), std::string(""), std::string("-0x1"), std::string("nan")}) {
+      std::vector<std::string> args = o.command;
+      args.insert(args.end(), {o.name, bad});
+      ::testing::internal::CaptureStderr();
+      EXPECT_EQ(ParseArgs(args, &cl), 2) << o.command[0] << " " << o.name << " '" << bad << "'";
+      const std::string err = ::testing::internal::GetCapturedStderr();
+      EXPECT_NE(err.find(o.name), std::string::npos) << err;
+      EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    }
+  }
+}
+
+TEST(CliOptions, IntegerRuleIsExactAtTheLimitsOfItsRange) {
+  unsigned long long v = 7;
+  EXPECT_TRUE(ParseIntegerOption("-9223372036854775808", -9223372036854775807LL - 1, 0, &v));
+  EXPECT_EQ(static_cast<long long>(v), -9223372036854775807LL - 1);
+  EXPECT_FALSE(ParseIntegerOption("-9223372036854775809", -9223372036854775807LL - 1, 0, &v));
+  EXPECT_TRUE(ParseIntegerOption("-3", -3, 5, &v));
+  EXPECT_EQ(static_cast<long long>(v), -3);
+  EXPECT_FALSE(ParseIntegerOption("-4", -3, 5, &v));
+  EXPECT_TRUE(ParseIntegerOption("-0", 0, 5, &v));
+  EXPECT_EQ(v, 0u);
+  EXPECT_TRUE(ParseIntegerOption("000000000000000000000005", 0, 5, &v) == false);  // more digits than any uint64
+  EXPECT_TRUE(ParseIntegerOption("0005", 0, 5, &v));
+  EXPECT_EQ(v, 5u);
 }
 
 }  // namespace

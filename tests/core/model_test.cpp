@@ -110,5 +110,43 @@ TEST(Model, EveryValidationErrorNamesItsArgument) {
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Model(2, 1, Model::StepFunction(), m0, P0); }, "function"));
 }
 
+// Issue 20, class 3: zero dimensions are rejected at validation, naming the matrix, by every constructor
+// (before, a 0 x 0 model was accepted and the smoother segfaulted, the simulator called BLAS with n = 0).
+TEST(Model, ZeroDimensionsAreRejectedNamingTheMatrix) {
+  const MatrixXd none(0, 0);
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] { Model(MakeStep(none, MatrixXd(1, 0), none, MatrixXd::Identity(1, 1)), VectorXd(0), none); }, "A",
+      {"n = 0"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] {
+        Model(MakeStep(MatrixXd::Identity(2, 2), MatrixXd(0, 2), MatrixXd::Identity(2, 2), none), VectorXd::Zero(2),
+              MatrixXd::Identity(2, 2));
+      },
+      "C", {"m = 0"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] {
+        Model(std::vector<ModelStep>{MakeStep(none, MatrixXd(1, 0), none, MatrixXd::Identity(1, 1))}, VectorXd(0),
+              none);
+      },
+      "step 1: A"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] {
+        Model(
+            0, 1, [](int) { return GoodStep(); }, VectorXd(0), none);
+      },
+      "n", {"n = 0"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] {
+        Model(
+            2, 0, [](int) { return GoodStep(); }, VectorXd::Zero(2), MatrixXd::Identity(2, 2));
+      },
+      "m", {"m = 0"}));
+  // The smallest model (n = m = 1) is valid.
+  EXPECT_EQ(Model(MakeStep(MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1)),
+                  VectorXd::Zero(1), MatrixXd::Ones(1, 1))
+                .state_dim(),
+            1);
+}
+
 }  // namespace
 }  // namespace kfx

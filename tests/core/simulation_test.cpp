@@ -98,5 +98,33 @@ TEST(Simulate, NoiseInputDrawsInItsOwnDimension) {
   }
 }
 
+// Issue 20, class 4: no trajectory with inf or NaN. Q near DBL_MAX is factored without overflow (before,
+// 0.5 (Q + Q^T) overflowed to inf and the run wrote inf and NaN); a diverging model is a NumericalError naming
+// the step where the state overflows (before: inf written with exit code 0).
+TEST(Simulate, HugeNoiseIsFiniteAndDivergenceIsAnErrorNamingTheStep) {
+  const double huge = 1e308;
+  const MatrixXd one = MatrixXd::Ones(1, 1);
+  const Model noisy(MakeStep(0.5 * one, one, huge * one, one), VectorXd::Zero(1), one);
+  const Trajectory tr = Simulate(noisy, SimulationOptions{50, 3});
+  EXPECT_TRUE(tr.x.allFinite());
+  EXPECT_TRUE(tr.y.allFinite());
+  // x_1 = 0.5 x_0 + sqrt(1e308) w: the sample standard deviation of the increments is about 1e154.
+  const double rms = tr.x.stableNorm() / std::sqrt(static_cast<double>(tr.x.rows()));  // (squaredNorm overflows)
+  EXPECT_GT(rms, 1e153);
+  EXPECT_LT(rms, 1e155);
+  EXPECT_EQ(PsdFactor(huge * MatrixXd::Identity(2, 2)).cwiseAbs().maxCoeff(), std::sqrt(huge));
+  // x_k = 10^k x_0 overflows near k = 308.
+  const Model diverging(MakeStep(10.0 * one, one, one, one), VectorXd::Ones(1), one);
+  EXPECT_TRUE(Simulate(diverging, SimulationOptions{300, 3}).x.allFinite());
+  try {
+    Simulate(diverging, SimulationOptions{400, 3});
+    ADD_FAILURE() << "expected a NumericalError";
+  } catch (const NumericalError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("not finite at step 3"), std::string::npos) << msg;  // a step in 300..399
+    EXPECT_NE(msg.find("diverges"), std::string::npos) << msg;
+  }
+}
+
 }  // namespace
 }  // namespace kfx

@@ -168,7 +168,7 @@ TEST(CoupledFilterSlice, RejectsBadInput) {
   const CoupledStep s = RandomStep(rng, 3, 2, 1, 2);
   CoupledFilterSlice f(CoupledFilterKind::kBlockDiagonal, 0, 4, VectorXd::Zero(6), MatrixXd::Identity(2, 6));
   VectorXd y = VectorXd::Zero(3);
-  y(1) = NAN;
+  y(1) = INFINITY;  // (NaN is a missing measurement: BlockDiagJob.FewerSubsystemsThanTheGranule...)
   EXPECT_THROW(f.Step(s, y, nullptr), Error);
   EXPECT_THROW(f.Step(s, VectorXd::Zero(4), nullptr), Error);
 }
@@ -363,6 +363,109 @@ TEST(BlockDiagJob, SlicedOutputOnThreeRanksEqualsOneRankAndTheSerialFilter) {
   job.data = dir + "/m.json";
   job.out_dir = dir + "/bad";
   EXPECT_THROW(RunBlockDiagJob(job, 0, 1, nullptr), Error);
+}
+
+// Runs the job on `ranks` threads; returns each rank's error message ("" for none).
+std::vector<std::string> RunJobOnThreads(const BlockDiagJob& job, int ranks) {
+  ThreadReducer red(ranks);
+  std::vector<std::thread> threads;
+  std::vector<std::string> errors(static_cast<size_t>(ranks));
+  for (int p = 0; p < ranks; ++p) {
+    threads.emplace_back([&, p] {
+      try {
+        RunBlockDiagJob(job, p, ranks, red.For());
+      } catch (const std::exception& e) {
+        errors[static_cast<size_t>(p)] = e.what();
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  return errors;
+}
+
+// Issue 20, classes 1 and 14: n = 1 and 3 subsystems with the default granule 1024 on 1, 2 and 4 ranks (ranks
+// with no subsystems), both filters, with missing (NaN) measurements: the serial filter's states. Before:
+// the empty ranks threw "expected a multiple of the granule" (MPI_ERR_TRUNCATE under mpirun) and NaN was
+// rejected.
+TEST(BlockDiagJob, FewerSubsystemsThanTheGranuleAndRanksWithMissingMeasurements) {
+  const std::string dir = TempDir("few");
+  for (const Index n : {Index{1}, Index{3}}) {
+    TestRng rng(17 + n);
+    const Index c = 2, d = 2, r = 2;
+    MatrixXd P0(c, n * c);
+    for (Index i = 0; i < n; ++i) P0.middleCols(i * c, c) = rng.Spd(c, 0.5);
+    const CoupledSystem sys(RandomStep(rng, n, c, d, r), VectorXd::Zero(n * c), P0);
+    const std::string model = dir + "/m" + std::to_string(n) + ".json";
+    SaveCoupledModel(model, sys);
+    TimeSeries y = SimulateCoupled(sys, {9, 2}).y;
+    for (Index i = 0; i < y.size(); i += 5) y.data()[i] = NAN;
+    WriteNpyMatrix(dir + "/y.npy", y);
+    for (const auto kind : {CoupledFilterKind::kBlockDiagonal, CoupledFilterKind::kBanded}) {
+      const CoupledRun serial = RunCoupledFilter(sys, kind, y);
+      ASSERT_TRUE(serial.x_filt.allFinite());
+      for (const int ranks : {1, 2, 4}) {
+        BlockDiagJob job;
+        job.model = model;
+        job.data = dir + "/y.npy";
+        job.kind = kind;
+        job.out_dir = dir + "/out-" + std::to_string(n) + ToString(kind) + std::to_string(ranks);
+        for (const std::string& e : RunJobOnThreads(job, ranks)) EXPECT_EQ(e, "") << ranks << " ranks";
+        EXPECT_LT(Rel(ReadBlockDiagStates(job.out_dir), serial.x_filt), 1e-11) << ranks << " ranks";
+      }
+    }
+  }
+}
+
+// Issue 20, class 2: one rank cannot write its slice. Every rank ends (no rank waits), exactly one error is
+// the failing rank's own, and the directory, complete from an earlier run, is now visibly incomplete (no
+// metadata.json). Before: the other ranks succeeded and rank 0 wrote metadata.json listing the missing file.
+TEST(BlockDiagJob, OneRankThatCannotWriteFailsTheJobWithOneMessageAndNoMarker) {
+  const std::string dir = TempDir("fail");
+  TestRng rng(29);
+  const Index n = 12, c = 2, d = 1, r = 2;
+  MatrixXd P0(c, n * c);
+  for (Index i = 0; i < n; ++i) P0.middleCols(i * c, c) = rng.Spd(c, 0.5);
+  const CoupledSystem sys(RandomStep(rng, n, c, d, r), VectorXd::Zero(n * c), P0);
+  SaveCoupledModel(dir + "/m.json", sys);
+  WriteNpyMatrix(dir + "/y.npy", SimulateCoupled(sys, {5, 2}).y);
+  BlockDiagJob job;
+  job.model = dir + "/m.json";
+  job.data = dir + "/y.npy";
+  job.granule = 4;
+  job.out_dir = dir + "/out";
+  for (const std::string& e : RunJobOnThreads(job, 3)) ASSERT_EQ(e, "");
+  ASSERT_TRUE(std::filesystem::exists(job.out_dir + "/metadata.json"));
+  const std::string slice1 = job.out_dir + "/x_filt.4-8.npy";  // rank 1's subsystems [4, 8)
+  ASSERT_TRUE(std::filesystem::remove(slice1));
+  std::filesystem::create_directories(slice1 + "/occupied");
+  const std::vector<std::string> errors = RunJobOnThreads(job, 3);
+  int own = 0;
+  for (const std::string& e : errors) {
+    EXPECT_NE(e, "");
+    if (e.find("on another rank") == std::string::npos) {
+      ++own;
+      EXPECT_NE(e.find("x_filt.4-8.npy"), std::string::npos) << e;
+    }
+  }
+  EXPECT_EQ(own, 1);
+  EXPECT_NE(errors[1].find("x_filt.4-8.npy"), std::string::npos) << errors[1];
+  EXPECT_FALSE(std::filesystem::exists(job.out_dir + "/metadata.json"));
+  EXPECT_THROW(ReadBlockDiagStates(job.out_dir), Error);
+}
+
+// A malformed metadata.json is a kfx::Error naming it (before: nlohmann's exceptions, or a slice outside n).
+TEST(BlockDiagJob, MalformedMetadataIsAnErrorNamingTheFile) {
+  const std::string dir = TempDir("meta");
+  const std::string head = R"({"format": "kfx-blockdiag-output", "n": 2, "c": 1, "d": 1, "r": 0, "steps": 1, )";
+  WriteNpyMatrix(dir + "/x.npy", MatrixXd::Zero(2, 1));
+  for (const std::string slices :
+       {R"("slices": 3)", R"("slices": [1])", R"("slices": [{"first": "a"}])",
+        R"("slices": [{"first": 0, "count": 1}])", R"("slices": [{"first": 0, "count": 1, "x_filt": 7}])",
+        R"("slices": [{"first": 1, "count": 9223372036854775807, "x_filt": "x.npy"}])",
+        R"("slices": [{"first": 0, "count": 1, "x_filt": "x.npy"}])"}) {
+    std::ofstream(dir + "/metadata.json") << head << slices << "}";
+    EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadBlockDiagStates(dir); }, dir + "/metadata.json")) << slices;
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "kfx/error.hpp"
@@ -110,6 +111,26 @@ TEST_F(CoupledModelFileTest, NpyFieldErrorsNameTheFieldAndTheArray) {
   WriteNpy(Path("F3.npy"), {3, 3, 2}, std::vector<double>(18, 0.5).data());
   ExpectError(kHead + R"(, "F": {"npy": "F3.npy"})" + fields, {"field 'F': expected an array of shape (3, 2, 2)"});
   ExpectError(kHead + R"(, "F": {"file": "F.npy"})" + fields, {"field 'F': expected {\"npy\": \"file.npy\"}"});
+}
+
+// Issue 20: a per-subsystem .npy field holds exactly n subsystems (before, only the slice read was checked:
+// the first subsystems of a longer array, or a slice within a shorter one, were taken for the model's).
+TEST_F(CoupledModelFileTest, NpyFieldsHoldExactlyTheModelsSubsystems) {
+  const std::string fields = R"(, "H": [[1, 0]], "V": [[0.1, 0], [0, 0.1]], "R": 0.5, "G": [[1], [0]],
+      "U": [[0.2]], "P0": [[1, 0], [0, 1]])";
+  WriteNpy(Path("F4.npy"), {4, 2, 2}, std::vector<double>(16, 0.5).data());
+  WriteNpy(Path("F2.npy"), {2, 2, 2}, std::vector<double>(8, 0.5).data());
+  for (const std::string file : {"F4.npy", "F2.npy"}) {
+    const std::string path = Write(kHead + R"(, "F": {"npy": ")" + file + "\"}" + fields);
+    const std::vector<std::pair<int, int>> slices = {{0, 3}, {0, 1}, {1, 1}};
+    for (const std::pair<int, int>& slice : slices) {
+      EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { LoadCoupledModelSlice(path, slice.first, slice.second); },
+                                                   path + ": ", {"field 'F': expected 3 subsystems", file}))
+          << file << " slice " << slice.first << "+" << slice.second;
+    }
+  }
+  WriteNpy(Path("F3.npy"), {3, 2, 2}, std::vector<double>(12, 0.5).data());
+  EXPECT_EQ(LoadCoupledModelSlice(Write(kHead + R"(, "F": {"npy": "F3.npy"})" + fields), 1, 2).n(), 2);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "kfx/error.hpp"
@@ -79,7 +80,7 @@ TEST_F(CsvTest, ReadsWithoutHeader) {
 }
 
 TEST_F(CsvTest, SkipsCommentsAndBlankLinesAndHandlesCrlfAndBom) {
-  const std::string text = "\xEF\xBB\xBF# measurements\r\n\r\n  # indented comment\r\nt,y\r\n1,2\r\n\r\n3,4\r\n";
+  const std::string text = "\xEF\xBB\xBF# measurements\r\n\r\n  # indented comment\r\nt,y\r\n1,2\r\n# c\r\n3,4\r\n\r\n";
   std::vector<std::string> names;
   const TimeSeries y = ReadTimeSeries(Write("y.csv", text), &names);
   EXPECT_EQ(names, (std::vector<std::string>{"t", "y"}));
@@ -107,10 +108,55 @@ TEST_F(CsvTest, MissingValuesReadAsNaN) {
   EXPECT_EQ(w(0, 1), 1.5);
 }
 
-TEST_F(CsvTest, HeaderOnlyGivesZeroRows) {
-  const TimeSeries y = ReadTimeSeries(Write("y.csv", "a,b\n"));
-  EXPECT_EQ(y.rows(), 0);
-  EXPECT_EQ(y.cols(), 2);
+// Issue 20, class 7: the CSV rules for every dialect that used to be read as something else (each case
+// was accepted before: 0 steps, a dropped first row, a dropped blank row).
+TEST_F(CsvTest, HeaderOnlyIsAnErrorNotZeroRows) {
+  ExpectReadError(Write("y.csv", "a,b\n"), {"no data rows"});
+  ExpectReadError(Write("y2.csv", "a,b\n# nothing else\n\n"), {"no data rows"});
+}
+
+TEST_F(CsvTest, CrOnlyLineEndingsAreLines) {
+  const TimeSeries y = ReadTimeSeries(Write("cr.csv", "t,y\r1,2\r3,4\r"));
+  ASSERT_EQ(y.rows(), 2);
+  EXPECT_EQ(y(1, 1), 4.0);
+  const TimeSeries z = ReadTimeSeries(Write("cr1.csv", "1\r2\r3"));  // one column, no header, no final CR
+  ASSERT_EQ(z.rows(), 3);
+  EXPECT_EQ(z(2, 0), 3.0);
+  const TimeSeries w = ReadTimeSeries(Write("mixed.csv", "1\r\n2\r3\n4\n"));
+  ASSERT_EQ(w.rows(), 4);
+  EXPECT_EQ(w(3, 0), 4.0);
+}
+
+TEST_F(CsvTest, NumericLookingFirstLineIsDataNotAHeader) {
+  for (const std::string first : {"1e999", "0x10", "-1e999", "inf", "+.5e", "Infinity", "-nan(x)"}) {
+    const std::string path = Write("h.csv", first + "\n1\n2\n");
+    EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadTimeSeries(path); }, path, {"line 1, column 1"}) ||
+                ReadTimeSeries(path).rows() == 3)
+        << first;  // either parsed as a value (inf) or an error naming its place, never dropped
+  }
+  EXPECT_EQ(ReadTimeSeries(Write("inf.csv", "inf\n1\n")).rows(), 2);
+  ExpectReadError(Write("x.csv", "0x10,a\n1,2\n"), {"line 1, column 1", "'0x10'"});
+  ExpectReadError(Write("e.csv", "1e999\n1\n"), {"line 1, column 1", "'1e999'"});
+}
+
+TEST_F(CsvTest, BlankLineInOneColumnIsAMissingValueInItsRow) {
+  const TimeSeries y = ReadTimeSeries(Write("y.csv", "y\n1\n\n3\n  \n5\n\n\n"));
+  ASSERT_EQ(y.rows(), 5);  // trailing blank lines end the file; inner ones are rows
+  EXPECT_EQ(y(0, 0), 1.0);
+  EXPECT_TRUE(std::isnan(y(1, 0)));
+  EXPECT_EQ(y(2, 0), 3.0);
+  EXPECT_TRUE(std::isnan(y(3, 0)));
+  EXPECT_EQ(y(4, 0), 5.0);
+  // With two columns a blank line is a row of the wrong length, named.
+  ExpectReadError(Write("two.csv", "1,2\n\n3,4\n"), {"line 2", "expected 2 fields", "got 1"});
+}
+
+TEST_F(CsvTest, OtherSeparatorsAreErrorsNamingLineAndColumn) {
+  ExpectReadError(Write("semi.csv", "1;2;3\n4;5;6\n"), {"line 1, column 1", "'1;2;3'", "separated by ','"});
+  ExpectReadError(Write("semih.csv", "a;b\n1;2\n"), {"line 1, column 1", "'a;b'", "separated by ','"});
+  ExpectReadError(Write("tab.csv", "a\tb\n1\t2\n"), {"line 1, column 1", "separated by ','"});
+  ExpectReadError(Write("few.csv", "a,b,c\n1,2,3\n4,5\n"), {"line 3, column 3", "expected 3 fields", "got 2"});
+  ExpectReadError(Write("many.csv", "1,2\n3,4,5\n"), {"line 2, column 3", "expected 2 fields", "got 3"});
 }
 
 TEST_F(CsvTest, RaggedRowsNameFileAndLine) {
@@ -125,7 +171,7 @@ TEST_F(CsvTest, NonNumericFieldsNameLineAndColumn) {
   // A second header-like line is data.
   ExpectReadError(Write("h.csv", "a,b\nc,d\n"), {"line 2, column 1", "'c'"});
   // Locale-style decimal commas are not numbers.
-  ExpectReadError(Write("d.csv", "t;y\n1;5\n"), {"line 2, column 1", "'1;5'"});
+  ExpectReadError(Write("d.csv", "t;y\n1;5\n"), {"line 1, column 1", "'t;y'"});
   // Out of the range of double.
   ExpectReadError(Write("o.csv", "1\n1e999\n"), {"line 2, column 1", "'1e999'"});
   ExpectReadError(Write("p.csv", "1\n0x10\n"), {"line 2", "'0x10'"});
@@ -182,9 +228,8 @@ TEST_F(CsvTest, WriteRejectsBadColumnNames) {
   EXPECT_THROW(WriteTimeSeries(Path("y.csv"), TimeSeries(3, 0)), Error);
   EXPECT_TRUE(
       testing::ThrowsErrorNaming([&] { WriteTimeSeries(Path("no/such/dir/y.csv"), y); }, Path("no/such/dir/y.csv")));
-  // A header-only file round-trips to zero rows.
-  WriteTimeSeries(Path("h.csv"), TimeSeries(0, 2), {"a", "b"});
-  EXPECT_EQ(ReadTimeSeries(Path("h.csv")).cols(), 2);
+  // No rows, even with a header: it would not read back (a CSV series has at least one row, issue 20).
+  EXPECT_THROW(WriteTimeSeries(Path("h.csv"), TimeSeries(0, 2), {"a", "b"}), Error);
 }
 
 TEST_F(TimeSeriesIoTest, NpyTimeSeriesShapes) {
@@ -266,6 +311,60 @@ TEST_F(AtomicOutputTest, FailedRenameIsAnErrorAndLeavesNoTemporary) {
       testing::ThrowsErrorNaming([&] { WriteTimeSeries(Path("x.npy"), TimeSeries::Ones(2, 1)); }, Path("x.npy")));
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
   EXPECT_THROW({ AtomicOutputFile f(Path("no-such-dir/y.csv")); }, Error);
+}
+
+// Issue 20, class 5: a directory of outputs is one complete run (its marker, written last) or visibly
+// incomplete. Before OutputDirectory, a run that failed between its files left the previous summary.json.
+TEST_F(AtomicOutputTest, OutputDirectoryRemovesTheOldMarkerFirstAndWritesItLast) {
+  const std::string out = Path("out");
+  {
+    OutputDirectory d(out, "summary.json");
+    WriteTimeSeries(d.Path("a.npy"), TimeSeries::Ones(2, 1));
+    d.Commit("{\"run\": 1}");
+  }
+  EXPECT_EQ(Read(Path("out/summary.json")), "{\"run\": 1}\n");
+  // A second run that fails after its first file: the first run's marker is gone (visibly incomplete).
+  try {
+    OutputDirectory d(out, "summary.json");
+    EXPECT_FALSE(fs::exists(Path("out/summary.json")));
+    WriteTimeSeries(d.Path("a.npy"), TimeSeries::Zero(3, 1));
+    WriteTimeSeries(d.Path("b.npy/"), TimeSeries::Zero(3, 1));  // fails: not a file name
+    d.Commit("{\"run\": 2}");
+    ADD_FAILURE() << "expected the write of b.npy/ to fail";
+  } catch (const Error&) {
+  }
+  EXPECT_FALSE(fs::exists(Path("out/summary.json")));
+  // A non-owner (an MPI rank other than 0) leaves the marker to the owner.
+  { OutputDirectory(out, "summary.json").Commit("{\"run\": 3}"); }
+  OutputDirectory other(out, "summary.json", /*owner=*/false);
+  EXPECT_TRUE(fs::exists(Path("out/summary.json")));
+  EXPECT_THROW(other.Commit("{}"), Error);
+  // A marker name that is a directory, a directory that cannot be made: errors naming them.
+  fs::create_directories(Path("odd/summary.json/x"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { OutputDirectory(Path("odd"), "summary.json"); }, Path("odd")));
+  Write("file", "x");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { OutputDirectory(Path("file/sub"), "summary.json"); }, "-o/--out"));
+}
+
+// Issue 20, class 11: a FIFO (or another non-regular file) given as a CSV, .npy, model, coupled model or
+// error-range file is a clean error; before, the open blocked forever waiting for a writer.
+TEST_F(TimeSeriesIoTest, FifosAndOtherNonRegularFilesAreRejectedWithoutBlocking) {
+  for (const std::string name : {"y.csv", "y.npy", "m.json"}) {
+    ASSERT_EQ(::mkfifo(Path(name).c_str(), 0600), 0) << name;
+  }
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadTimeSeries(Path("y.csv")); }, Path("y.csv"), {"FIFO"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadTimeSeries(Path("y.npy")); }, Path("y.npy"), {"FIFO"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadNpy(Path("y.npy")); }, Path("y.npy"), {"FIFO"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadNpySlice(Path("y.npy"), 0, 0, 1); }, Path("y.npy"), {"FIFO"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { LoadModel(Path("m.json")); }, Path("m.json"), {"FIFO"}));
+  // A model file whose matrix is a FIFO .npy.
+  const std::string model = Write("model.json",
+                                  R"({"format": "kfx-model", "version": 1, "A": {"npy": "y.npy"}, "C": [[1]],
+                                      "Q": [[1]], "R": [[1]], "m0": [0], "P0": [[1]]})");
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { LoadModel(model); }, "y.npy", {"FIFO"}));
+  fs::create_symlink("/dev/null", Path("null.csv"));  // a character device behind a .csv name
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadTimeSeries(Path("null.csv")); }, Path("null.csv"), {"device"}));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadNpy("/dev/zero"); }, "/dev/zero", {"device"}));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -192,16 +193,22 @@ int RunChecks() {
 
 // ---- Helper modes for tests/mpi/blockdiag_cli.sh (one process, no MPI calls) ------------------------
 
-int MakeModel(const std::string& dir) {
+// n subsystems (50 by default; fewer than a granule and than the ranks in the few-subsystems runs); with
+// `missing`, every 7th measurement is NaN (a missing value, skipped by every filter).
+int MakeModel(const std::string& dir, Index n, bool missing) {
   std::filesystem::create_directories(dir);
-  const Index n = 50, c = 2, d = 1, r = 4;
+  const Index c = 2, d = 1, r = 4;
   kfx::Rng rng(21);
   const CoupledStep s = RandomStep(rng, n, c, d, r);
   MatrixXd P0(c, n * c);
   for (Index i = 0; i < n; ++i) P0.middleCols(i * c, c) = Spd(rng, c, 0.5);
   const CoupledSystem system(s, VectorXd::Zero(n * c), P0);
   kfx::SaveCoupledModel(dir + "/model.json", system);
-  kfx::WriteNpyMatrix(dir + "/y.npy", kfx::SimulateCoupled(system, {12, 5}).y);
+  MatrixXd y = kfx::SimulateCoupled(system, {12, 5}).y;
+  if (missing) {
+    for (Index i = 0; i < y.size(); i += 7) y.data()[i] = std::numeric_limits<double>::quiet_NaN();
+  }
+  kfx::WriteNpyMatrix(dir + "/y.npy", y);
   return 0;
 }
 
@@ -225,7 +232,9 @@ int CheckSerial(const std::string& dir, const std::string& model, const std::str
 
 int main(int argc, char** argv) {
   try {
-    if (argc >= 3 && std::string(argv[1]) == "make-model") return MakeModel(argv[2]);
+    if (argc >= 3 && std::string(argv[1]) == "make-model") {
+      return MakeModel(argv[2], argc >= 4 ? std::stol(argv[3]) : 50, argc >= 5 && std::string(argv[4]) == "missing");
+    }
     if (argc >= 4 && std::string(argv[1]) == "compare") return Compare(argv[2], argv[3], 1e-13);
     if (argc >= 6 && std::string(argv[1]) == "check-serial") return CheckSerial(argv[2], argv[3], argv[4], argv[5]);
   } catch (const std::exception& e) {

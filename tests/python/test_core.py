@@ -387,3 +387,12 @@ def test_one_summary_shape_reports_numerical_outcomes():
                                                 np.array([[0.5]]), np.zeros(1))
     st = kfx.exact_stationary_performance(model, wrong)
     assert st.summary.termination == "unstable" and math.isinf(st.mse)
+
+
+def test_zero_dimensions_are_rejected_naming_the_matrix():
+    # Issue 20, class 3: a model of (0, 0) arrays is a kfx.Error naming A or C, never a crash,
+    # a SystemError or a BLAS message; the smoother and the simulator never see it.
+    z = np.zeros((0, 0))
+    expect_error(lambda: kfx.Model(A=z, C=np.zeros((1, 0)), Q=z, R=np.eye(1), m0=np.zeros(0), P0=z), "A", "n = 0")
+    expect_error(lambda: kfx.Model(A=np.eye(2), C=np.zeros((0, 2)), Q=np.eye(2), R=z, m0=np.zeros(2), P0=np.eye(2)),
+                 "C", "m = 0")

@@ -4,6 +4,7 @@
 // block_diagonal_passes.cpp, the model and its simulation in coupled_model.cpp, the naive, banded and
 // full steps in reference_steps.cpp.
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -49,9 +50,36 @@ CoupledFilter::CoupledFilter(CoupledFilterKind kind, VectorXd x0, const MatrixXd
   P_ = kind == CoupledFilterKind::kFull ? BlockDiagonalToDense(P0_blocks, c_) : P0_blocks;
 }
 
-void CoupledFilter::Step(const CoupledStep& s, const VectorXd& y) {
-  RequireVector("y", y, s.n() * s.d());
-  RequireFinite("y", y);
+bool MaskMissingMeasurements(const CoupledStep& s, const VectorXd& y, CoupledStep* masked, VectorXd* y_masked) {
+  const Index n = s.n(), c = s.c(), d = s.d();
+  if (y.size() != n * d) {  // (not RequireVector: it rejects NaN)
+    throw Error("y: expected a vector of length " + std::to_string(n * d) + " (n d), got length " +
+                std::to_string(y.size()));
+  }
+  if (y.array().isInf().any()) throw Error("y: expected finite values or NaN (a missing measurement), got inf");
+  if (!y.array().isNaN().any()) return false;
+  *masked = s;
+  *y_masked = y;
+  for (Index i = 0; i < n; ++i) {
+    for (Index j = 0; j < d; ++j) {
+      if (!std::isnan(y(i * d + j))) continue;
+      (*y_masked)(i * d + j) = 0.0;
+      masked->H.block(j, i * c, 1, c).setZero();
+      const double variance = s.R(j, i * d + j);
+      masked->R.block(j, i * d, 1, d).setZero();
+      masked->R.block(0, i * d + j, d, 1).setZero();
+      masked->R(j, i * d + j) = variance;
+    }
+  }
+  return true;
+}
+
+void CoupledFilter::Step(const CoupledStep& step, const VectorXd& measured) {
+  CoupledStep masked_step;
+  VectorXd masked_y;
+  const bool missing = MaskMissingMeasurements(step, measured, &masked_step, &masked_y);
+  const CoupledStep& s = missing ? masked_step : step;
+  const VectorXd& y = missing ? masked_y : measured;
   CheckStep(s);
   if (kind_ == CoupledFilterKind::kBlockDiagonal) {
     // The prediction and the innovation are formed inside pass 1, chunk by chunk, while F and H are

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <iostream>
+#include <limits>
 
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
@@ -238,6 +239,58 @@ TEST(CoupledFilter, SingleSubsystemBlockDiagonalAndFullEqualKalmanFilter) {
       }
     }
   }
+}
+
+// Issue 20, class 14: NaN measurements are missing (before: rejected). Reference: kfx's Kalman filter on the
+// dense stacked model, which leaves NaN rows out of its update; the full filter for any n and the
+// block-diagonal filter at n = 1 are that filter, the banded one is it on the projected noise, and the fast
+// block-diagonal form equals the naive one with the same entries missing. The missing entries cover one
+// component of a subsystem (R correlated with the other), a whole subsystem, and a whole step.
+TEST(CoupledFilter, MissingMeasurementsAreSkippedAsTheKalmanFilterSkipsThem) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const Index n : {Index{1}, Index{5}}) {
+    TestRng rng(40 + n);
+    const Index c = 3, d = 2, r = 2;
+    const MatrixXd P0 = PackedSpd(rng, c, n, 0.3);
+    const VectorXd x0 = rng.Gaussian(n * c, 1);
+    CoupledFilter block(CoupledFilterKind::kBlockDiagonal, x0, P0), full(CoupledFilterKind::kFull, x0, P0),
+        naive(CoupledFilterKind::kBlockDiagonalNaive, x0, P0), banded(CoupledFilterKind::kBanded, x0, P0);
+    Estimate kf{x0, BlockDiagonalToDense(P0, c)}, kf_banded = kf;
+    for (int k = 1; k <= 6; ++k) {
+      const CoupledStep s = RandomStep(rng, n, c, d, r);
+      VectorXd y = rng.Gaussian(n * d, 1);
+      if (k == 2) y(0) = nan;                                  // one of subsystem 0's two components
+      if (k == 3) y.segment((n - 1) * d, d).setConstant(nan);  // all of the last subsystem
+      if (k == 4) y.setConstant(nan);                          // the whole step: a pure prediction
+      if (k == 5 && n > 1) y(3) = nan;                         // subsystem 1's second component
+      const ModelStep dense = ToDenseStep(s);
+      kf = Update(Predict(kf, dense), dense, y).estimate;
+      ModelStep projected = dense;
+      projected.Q = BlockDiagonalToDense(DiagonalBlocks(dense.Q, c), c);
+      kf_banded = Update(Predict(kf_banded, projected), projected, y).estimate;
+      full.Step(s, y);
+      naive.Step(s, y);
+      block.Step(s, y);
+      banded.Step(s, y);
+      EXPECT_LE(RelativeDifference(full.x(), kf.x), 1e-11) << "n " << n << " step " << k;
+      EXPECT_LE(RelativeDifference(full.P(), kf.P), 1e-11) << "n " << n << " step " << k;
+      EXPECT_LE(RelativeDifference(banded.x(), kf_banded.x), 1e-11) << "n " << n << " step " << k;
+      EXPECT_LE(RelativeDifference(BlockDiagonalToDense(banded.P(), c), kf_banded.P), 1e-11);
+      EXPECT_LE(RelativeDifference(block.x(), naive.x()), 1e-10) << "n " << n << " step " << k;
+      EXPECT_LE(RelativeDifference(block.P(), naive.P()), 1e-10) << "n " << n << " step " << k;
+      EXPECT_TRUE(block.x().allFinite() && block.P().allFinite());
+      if (n == 1) {
+        EXPECT_LE(RelativeDifference(block.x(), kf.x), 1e-11) << "step " << k;
+        EXPECT_LE(RelativeDifference(block.P(), kf.P), 1e-11) << "step " << k;
+      }
+    }
+  }
+  // An infinite measurement is not a missing one.
+  TestRng rng(3);
+  const CoupledStep s = RandomStep(rng, 2, 2, 1, 1);
+  CoupledFilter f(CoupledFilterKind::kBlockDiagonal, VectorXd::Zero(4), PackedSpd(rng, 2, 2, 0.3));
+  EXPECT_TRUE(testing::ThrowsErrorNaming(
+      [&] { f.Step(s, (VectorXd(2) << 1.0, std::numeric_limits<double>::infinity()).finished()); }, "y", {"inf"}));
 }
 
 // The banded filter is the Kalman filter of the model whose process noise is D{V + G U G^T}.
