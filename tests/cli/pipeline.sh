@@ -40,7 +40,7 @@ grep -q '"healthy": false' "$tmp/cj/summary.json"
 test ! -s "$tmp/cu.err"
 "$kfx" filter "$tmp/case_c.json" --data "$tmp/csim/y.npy" --no-health -o "$tmp/cn" > /dev/null 2> "$tmp/cn.err"
 test ! -s "$tmp/cn.err"
-! grep -q '"health"' "$tmp/cn/summary.json"
+if grep -q '"health"' "$tmp/cn/summary.json"; then echo "--no-health wrote health"; exit 1; fi
 "$kfx" analyze "$model" --monte-carlo 50 --steps 5 --json "$tmp/a.json" > "$tmp/a.txt"
 grep -q "filter gain" "$tmp/a.txt"
 grep -q "predictor gain" "$tmp/a.txt"

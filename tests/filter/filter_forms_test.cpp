@@ -3,6 +3,7 @@
 // (A), (B), (C) of docs/robustness.md, and the health monitor (symmetry, definiteness, NIS).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -400,7 +401,8 @@ TEST(FilterHealth, CheapChecksWarnOnCaseCAndNameTheFormToUse) {
     o.monitor_health = true;
     o.monitor_eigenvalues = false;
     const FilterRun run = RunFilter(model, y, o);
-    const double error = testing::RelativeDifference(run.P_filt[3000], CaseCExact(3000));
+    double error = 0.0;  // max over k, as in the table of docs/robustness.md
+    for (int k = 1; k <= 3000; ++k) error = std::max(error, testing::RelativeDifference(run.P_filt[k], CaseCExact(k)));
     if (f.form == FilterForm::kConventional) {
       EXPECT_GT(error, 0.1);  // wrong: measured 0.38 (Joseph), 1.0 (standard) over the run
       EXPECT_GT(run.health.cholesky_failures, 0);
