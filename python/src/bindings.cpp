@@ -20,7 +20,7 @@ py::array ToFloatArray(py::handle src) {
     const py::dtype dt = o.attr("dtype").cast<py::dtype>();
     const char kind = dt.kind();
     if (kind != 'f' && kind != 'i' && kind != 'u' && kind != 'b') {
-      throw Error("expected an array of real numbers, got dtype " + py::str(dt).cast<std::string>() +
+      throw Error("expected an array of real numbers, got dtype " + py::str(py::object(dt)).cast<std::string>() +
                   (kind == 'c' ? " (kfx does not drop imaginary parts: pass .real if that is meant)" : ""));
     }
   };
@@ -32,7 +32,8 @@ py::array ToFloatArray(py::handle src) {
     try {
       obj = np.attr("asarray")(obj);
     } catch (py::error_already_set& e) {
-      throw Error("expected an array of real numbers, got " + py::str(py::type::of(src)).cast<std::string>() + " (" +
+      throw Error("expected an array of real numbers, got " +
+                  py::str(py::object(py::type::of(src))).cast<std::string>() + " (" +
                   std::string(e.what()).substr(0, 200) + ")");
     }
   }
