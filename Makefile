@@ -24,7 +24,7 @@ export OMP_NUM_THREADS ?= 1
 DEPS_BUILD := build python test mpi
 KFX := $(BUILD)/bin/kfx
 
-.PHONY: demo test deps build test-asan bench format-check install clean fuzz fuzz-build fuzz-smoke
+.PHONY: demo test deps build test-asan test-asan-ci bench format-check install clean fuzz fuzz-build fuzz-smoke
 
 deps:
 	@bash tools/install-deps.sh $(DEPS_BUILD)
@@ -58,6 +58,19 @@ test-asan: deps
 	cmake --build $(ASAN_BUILD) -j$(JOBS)
 	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --test-dir $(ASAN_BUILD) --output-on-failure -j$(JOBS)
+
+# CI's sanitizer step (.ci/run): the same ASan + UBSan build, but only what the unit label needs (no
+# CLI, no Python module, no reproductions), ccache when installed; the unit tests run once with the
+# machine's own OpenBLAS kernels and once with OPENBLAS_CORETYPE=Prescott, the kernels of the Intel
+# machines where DSYMV read past small operands (docs/robustness.md, class 16).
+ASAN_ENV := ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+test-asan-ci: deps
+	@cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" -DKFX_SANITIZE=ON \
+	  -DKFX_BUILD_APPS=OFF $(if $(shell command -v ccache),-DCMAKE_CXX_COMPILER_LAUNCHER=ccache,) \
+	  > $(ASAN_BUILD).configure.log 2>&1 || (cat $(ASAN_BUILD).configure.log; exit 1)
+	cmake --build $(ASAN_BUILD) -j$(JOBS) --target kfx_unit_tests
+	$(ASAN_ENV) ctest --test-dir $(ASAN_BUILD) -L unit --output-on-failure -j$(JOBS)
+	$(ASAN_ENV) OPENBLAS_CORETYPE=Prescott ctest --test-dir $(ASAN_BUILD) -L unit --output-on-failure -j$(JOBS)
 
 bench:
 	@bash tools/install-deps.sh build bench

@@ -106,8 +106,11 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
                   "Covariance form: joseph (default), standard, sqrt (square root), ud (Bierman-Thornton), "
                   "information (docs/robustness.md)")
         ->check(CLI::IsMember(FilterFormChoices()));
-    c->add_flag("--health", a.health,
-                "Monitor symmetry, definiteness and innovation consistency (NIS); reported in summary.json");
+    auto* full = c->add_flag("--health", a.health,
+                             "Full health checks: also the smallest eigenvalue of every P_{k|k} (the cheap checks, "
+                             "Cholesky of P_{k|k} and the NIS, are on by default; summary.json \"health\")");
+    c->add_flag("--no-health", a.no_health, "No health checks (no warning, no \"health\" in summary.json)")
+        ->excludes(full);
     return c;
   };
   add_filter("filter", "Kalman filter: estimates, covariance diagonals, log-likelihood", out->flt);
@@ -161,6 +164,25 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
 int CommandLineParser::Parse(int argc, const char* const* argv, CommandLine* out) {
   CLI::App& app = impl_->app;
   impl_->args = CommandLine();  // the defaults (the options are bound to these members)
+  // The top level has only --help and --version: a first word that is not an option must name a
+  // subcommand (CLI11 would only say "A subcommand is required").
+  if (argc > 1 && argv[1] != nullptr && argv[1][0] != '-') {
+    const std::string word = argv[1];
+    std::string names;
+    bool known = false;
+    for (const CLI::App* c : app.get_subcommands([](const CLI::App*) { return true; })) {
+      known = known || c->get_name() == word;
+      names += (names.empty() ? "" : ", ") + c->get_name();
+    }
+    if (!known) {
+      std::string shown = word;
+      for (auto& ch : shown)
+        if (ch == '\n' || ch == '\r') ch = ' ';
+      std::fprintf(stderr, "kfx: error: unknown subcommand '%s' (expected one of: %s; see kfx --help)\n", shown.c_str(),
+                   names.c_str());
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -18,7 +18,8 @@ struct FilterArgs {
   std::string model, data, out;
   bool csv = false;
   std::string form = "joseph";  ///< one of FilterFormChoices()
-  bool health = false;          ///< monitor health (summary.json "health")
+  bool health = false;          ///< full health checks: also every P_{k|k}'s eigenvalues
+  bool no_health = false;       ///< no health checks (the cheap ones are on by default)
 };
 
 struct AnalyzeArgs {

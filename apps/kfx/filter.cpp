@@ -24,7 +24,9 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
   ProgressLine progress(smooth ? "smooth" : "filter");
   FilterRunOptions opt;
   opt.store_covariances = smooth;
-  opt.monitor_health = a.health;
+  // Health checks by default (docs/robustness.md, class 8): a wrong covariance is never silent.
+  opt.monitor_health = !a.no_health;
+  opt.monitor_eigenvalues = a.health;
   opt.filter = ParseFilterForm(a.form);
   opt.progress = progress.callback();
   const FilterRun run = RunFilter(model, y, opt);
@@ -64,12 +66,17 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
   summary["missing_entries"] = missing;
   summary["log_likelihood"] = run.log_likelihood;
   summary["form"] = a.form;
-  if (a.health) {
+  const std::string& warning = run.health_warning;
+  if (!warning.empty()) std::cerr << "kfx: warning: " << warning << "\n";
+  if (opt.monitor_health) {
     const FilterHealth& h = run.health;
     nlohmann::ordered_json hj;
     hj["healthy"] = h.healthy();
+    hj["eigenvalues_checked"] = opt.monitor_eigenvalues ? "every step" : "steps where Cholesky failed";
+    hj["warning"] = warning;
     hj["max_asymmetry"] = h.max_asymmetry;
-    hj["min_eigenvalue"] = h.min_eigenvalue;
+    hj["min_eigenvalue"] =
+        std::isfinite(h.min_eigenvalue) ? nlohmann::ordered_json(h.min_eigenvalue) : nlohmann::ordered_json();
     hj["min_eigenvalue_step"] = h.min_eigenvalue_step;
     hj["cholesky_failures"] = h.cholesky_failures;
     hj["first_cholesky_failure"] = h.first_cholesky_failure;

@@ -114,8 +114,14 @@ struct FilterRunOptions {
   /// Keep every P_{k|k-1}, P_{k|k} (needed by the smoother; n^2 (2T + 2) doubles).
   bool store_covariances = true;
   /// Check symmetry, definiteness (eigenvalues, Cholesky) of P_{k|k} and the NIS at every step
-  /// (O(n^3) per step) and report them in FilterRun::health.
+  /// (O(n^3) per step) and report them in FilterRun::health. The CLI and the Python package turn the
+  /// cheap checks (below) on by default and warn with HealthWarning (docs/robustness.md, class 8).
   bool monitor_health = false;
+  /// With monitor_health: false = the cheap checks (a Cholesky factorization of P_{k|k}, about n^3/3
+  /// flops, and the NIS), the smallest eigenvalue computed only at steps where the factorization
+  /// fails (FilterHealth::min_eigenvalue is then over those steps, +inf when none failed); true =
+  /// also a symmetric eigendecomposition at every step.
+  bool monitor_eigenvalues = true;
   ProgressCallback progress{};
   /// Steady-state fast path (time-invariant models only; 0 = off, the default): once a full step
   /// changes P_{k|k} by at most this, relative in the Frobenius norm, the gain, S_k and the
@@ -138,7 +144,13 @@ struct FilterRun {
   std::vector<int> num_observed;         ///< length T
   int steady_state_steps = 0;            ///< steps done on the frozen gain (steady_state_tolerance)
   FilterHealth health;                   ///< filled when FilterRunOptions::monitor_health
+  std::string health_warning;            ///< HealthWarning(health, options.filter): "" when healthy
 };
+
+/// One line for the user when a monitored run is not healthy, naming what failed and the form to use
+/// instead (the UD or square-root form when P_{k|k} lost definiteness); empty when healthy or not
+/// monitored.
+std::string HealthWarning(const FilterHealth& health, const KalmanFilterOptions& filter);
 
 /// Runs the filter over y. @throws kfx::Error on dimension mismatch / horizon exceeded;
 /// kfx::NumericalError when an estimate, covariance or likelihood term is not finite.

@@ -89,6 +89,10 @@ class PyKalmanFilter {
     prior_ = est_;
   }
   void update(const Eigen::Ref<const Eigen::VectorXd>& z) {
+    if (z.size() != m_) {
+      throw Error("z: expected a measurement of length " + std::to_string(m_) + " (dim_z), got length " +
+                  std::to_string(z.size()));
+    }
     UpdateResult r = Update(est_, step_, z, options_);
     const bool all = static_cast<Eigen::Index>(r.observed.size()) == m_;
     if (all) {
@@ -217,11 +221,20 @@ void BindFilterPyKalmanFilter(py::module_& m) {
           },
           "'joseph' (default, PSD-preserving) or 'standard' (P - K H P)")
       .def("predict", &PyKalmanFilter::predict, "x = F x, P = F P F^T + Q.")
-      .def("update", &PyKalmanFilter::update, py::arg("z"),
-           "Measurement update with z (m,); NaN entries are missing (all NaN: no update).")
       .def(
-          "update", [](PyKalmanFilter& f, double z) { f.update(Eigen::VectorXd::Constant(1, z)); }, py::arg("z"),
-          "A scalar measurement (dim_z = 1).")
+          "update",
+          [](PyKalmanFilter& f, const py::object& z) {
+            // A Python number is a scalar measurement (dim_z = 1); anything else goes through the one
+            // array conversion, its errors naming z.
+            if (py::isinstance<py::float_>(z) || py::isinstance<py::int_>(z)) {
+              f.update(Eigen::VectorXd::Constant(1, z.cast<double>()));
+            } else {
+              f.update(VectorArgument(z, "z"));
+            }
+          },
+          py::arg("z"),
+          "Measurement update with z (m,) (or a number when dim_z = 1); NaN entries are missing (all NaN: no "
+          "update).")
       .def("batch_filter", &PyKalmanFilter::batch_filter, py::arg("zs"), py::arg("update_state") = true,
            "Filters zs (T, m) in one call (kfx.run_filter): returns (means (T, n), covariances (T, n, n), "
            "means_p, covariances_p), predicted then updated for each row; x, P end at the last estimate.")

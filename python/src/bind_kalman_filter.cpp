@@ -8,6 +8,7 @@
 #include "kfx/kalman_filter.hpp"
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
+#include "kfx/validation.hpp"
 
 namespace kfx::python {
 namespace {
@@ -18,7 +19,14 @@ CovarianceUpdateForm ParseUpdateForm(const std::string& s) { return ParseEnum<Co
 
 void BindKalmanFilter(py::module_& m) {
   py::class_<Estimate>(m, "Estimate", "A Gaussian estimate (x, P).")
-      .def(py::init<Eigen::VectorXd, Eigen::MatrixXd>(), py::arg("x"), py::arg("P"))
+      .def(py::init([](Eigen::VectorXd x, Eigen::MatrixXd P) {
+             // As a Model checks its prior (docs/robustness.md, class 10).
+             RequireVector("x", x, -1);
+             RequireShape("P", P, x.size(), x.size());
+             RequirePositiveSemidefinite("P", P);
+             return Estimate{std::move(x), std::move(P)};
+           }),
+           py::arg("x"), py::arg("P"), "Validated: x finite, P symmetric positive semidefinite (raises kfx.Error).")
       .def_readonly("x", &Estimate::x)
       .def_readonly("P", &Estimate::P);
   py::class_<UpdateResult>(m, "UpdateResult")
@@ -47,6 +55,20 @@ void BindKalmanFilter(py::module_& m) {
       py::arg("prior"), py::arg("step"), py::arg("y"), py::arg("update_form") = "joseph",
       "Measurement update with y (NaN entries are missing); Joseph form by default.");
 
+  py::class_<FilterHealth>(m, "FilterHealth", "Health of a filter run (docs/robustness.md, 'Health checks').")
+      .def_readonly("monitored", &FilterHealth::monitored)
+      .def_readonly("steps", &FilterHealth::steps)
+      .def_readonly("max_asymmetry", &FilterHealth::max_asymmetry)
+      .def_readonly("min_eigenvalue", &FilterHealth::min_eigenvalue)
+      .def_readonly("min_eigenvalue_step", &FilterHealth::min_eigenvalue_step)
+      .def_readonly("cholesky_failures", &FilterHealth::cholesky_failures)
+      .def_readonly("first_cholesky_failure", &FilterHealth::first_cholesky_failure)
+      .def_readonly("nis_mean", &FilterHealth::nis_mean)
+      .def_readonly("nis_dof", &FilterHealth::nis_dof)
+      .def_readonly("nis_lower", &FilterHealth::nis_lower)
+      .def_readonly("nis_upper", &FilterHealth::nis_upper)
+      .def_readonly("nis_consistent", &FilterHealth::nis_consistent)
+      .def_property_readonly("healthy", &FilterHealth::healthy);
   py::class_<FilterRun>(m, "FilterRun", "A whole-sequence filter run (kfx.run_filter).")
       .def_readonly("x_filt", &FilterRun::x_filt, "(T+1, n): row k = x_{k|k}; row 0 = m0")
       .def_readonly("x_pred", &FilterRun::x_pred, "(T+1, n): row k = x_{k|k-1}; row 0 = m0")
@@ -59,18 +81,34 @@ void BindKalmanFilter(py::module_& m) {
       .def_readonly("innovations", &FilterRun::innovations, "(T, m), NaN where missing")
       .def_readonly("log_likelihood_terms", &FilterRun::log_likelihood_terms)
       .def_readonly("log_likelihood", &FilterRun::log_likelihood)
-      .def_readonly("num_observed", &FilterRun::num_observed);
+      .def_readonly("num_observed", &FilterRun::num_observed)
+      .def_readonly("health", &FilterRun::health, "FilterHealth (monitor_health)")
+      .def_readonly("health_warning", &FilterRun::health_warning,
+                    "the warning issued for this run ('' when healthy or not monitored)");
   m.def(
       "run_filter",
-      [](const Model& model, const TimeSeries& y, bool store_covariances, const std::string& form) {
+      [](const Model& model, const TimeSeries& y, bool store_covariances, const std::string& form,
+         const std::string& filter_form, bool monitor_health) {
         FilterRunOptions o;
         o.store_covariances = store_covariances;
         o.filter.update_form = ParseUpdateForm(form);
-        return RunFilter(model, y, o);
+        o.filter.form = ParseEnum<FilterForm>("form", filter_form);
+        // The cheap health checks by default (docs/robustness.md, class 8), with a RuntimeWarning.
+        o.monitor_health = monitor_health;
+        o.monitor_eigenvalues = false;
+        FilterRun run = RunFilter(model, y, o);
+        if (!run.health_warning.empty() &&
+            PyErr_WarnEx(PyExc_RuntimeWarning, ("kfx.run_filter: " + run.health_warning).c_str(), 1) != 0) {
+          throw py::error_already_set();
+        }
+        return run;
       },
       py::arg("model"), py::arg("y"), py::arg("store_covariances") = true, py::arg("update_form") = "joseph",
+      py::arg("form") = "conventional", py::arg("monitor_health") = true,
       "Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting "
-      "from the prior (m0, P0) at k = 0.");
+      "from the prior (m0, P0) at k = 0. form: 'conventional', 'sqrt', 'ud' or 'information'. With "
+      "monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's "
+      ".health, and a RuntimeWarning naming the form to use when the covariances went wrong.");
   py::class_<SmootherRun>(m, "SmootherRun")
       .def_readonly("x", &SmootherRun::x, "(T+1, n): row k = x_{k|T}")
       .def_readonly("P_diag", &SmootherRun::P_diag)

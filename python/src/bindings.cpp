@@ -1,9 +1,76 @@
-// The shared helpers of the kfx._core bindings (declared in bindings.hpp): numpy stacks of matrices to
-// and from lists of Eigen matrices.
+// The shared helpers of the kfx._core bindings (declared in bindings.hpp and array_caster.hpp): the one
+// conversion of array input, numpy stacks of matrices to and from lists of Eigen matrices.
+#include <limits>
+
 #include "bindings.hpp"
 #include "kfx/error.hpp"
 
 namespace kfx::python {
+
+std::string NumpyShapeString(const py::array& a) {
+  std::string s = "(";
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) s += (i ? ", " : "") + std::to_string(a.shape(i));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+py::array ToFloatArray(py::handle src) {
+  const py::module_ np = py::module_::import("numpy");
+  py::object obj = py::reinterpret_borrow<py::object>(src);
+  auto check_kind = [](const py::object& o) {
+    const py::dtype dt = o.attr("dtype").cast<py::dtype>();
+    const char kind = dt.kind();
+    if (kind != 'f' && kind != 'i' && kind != 'u' && kind != 'b') {
+      throw Error("expected an array of real numbers, got dtype " + py::str(py::object(dt)).cast<std::string>() +
+                  (kind == 'c' ? " (kfx does not drop imaginary parts: pass .real if that is meant)" : ""));
+    }
+  };
+  if (py::isinstance(obj, np.attr("ma").attr("MaskedArray"))) {
+    check_kind(obj);  // masked entries are missing values: NaN, never the hidden data
+    obj = obj.attr("astype")(np.attr("float64")).attr("filled")(std::numeric_limits<double>::quiet_NaN());
+  }
+  if (!py::isinstance<py::array>(obj)) {
+    try {
+      obj = np.attr("asarray")(obj);
+    } catch (py::error_already_set& e) {
+      throw Error("expected an array of real numbers, got " +
+                  py::str(py::object(py::type::of(src))).cast<std::string>() + " (" +
+                  std::string(e.what()).substr(0, 200) + ")");
+    }
+  }
+  check_kind(obj);
+  return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+}
+
+Eigen::VectorXd ArrayToVector(const py::array& a, const std::string& name) {
+  const std::string who = name.empty() ? "" : name + ": ";
+  const auto f = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (f.ndim() == 1 || (f.ndim() == 2 && f.shape(1) == 1)) {
+    return Eigen::Map<const Eigen::VectorXd>(f.data(), static_cast<Eigen::Index>(f.shape(0)));
+  }
+  throw Error(who + "expected a 1-D array (a vector), got shape " + NumpyShapeString(f));
+}
+
+Eigen::MatrixXd ArrayToMatrix(const py::array& a, const std::string& name) {
+  const std::string who = name.empty() ? "" : name + ": ";
+  const auto f = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  if (f.ndim() == 2) {
+    return Eigen::Map<const RowMajor>(f.data(), static_cast<Eigen::Index>(f.shape(0)),
+                                      static_cast<Eigen::Index>(f.shape(1)));
+  }
+  if (f.ndim() == 1) return Eigen::Map<const Eigen::VectorXd>(f.data(), static_cast<Eigen::Index>(f.shape(0)));
+  throw Error(who + "expected a 2-D array (a matrix), got shape " + NumpyShapeString(f));
+}
+
+Eigen::VectorXd VectorArgument(py::handle src, const std::string& name) {
+  try {
+    return ArrayToVector(ToFloatArray(src), name);
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    if (what.rfind(name + ": ", 0) == 0) throw;
+    throw Error(name + ": " + what);
+  }
+}
 
 py::array_t<double> Stack(const std::vector<Eigen::MatrixXd>& matrices, size_t begin) {
   const size_t K = matrices.size() > begin ? matrices.size() - begin : 0;
@@ -20,9 +87,15 @@ py::array_t<double> Stack(const std::vector<Eigen::MatrixXd>& matrices, size_t b
 }
 
 std::vector<Eigen::MatrixXd> Unstack(const py::array& stack, const std::string& name) {
-  auto arr = py::array_t<double, py::array::forcecast>::ensure(stack);
-  if (!arr || arr.ndim() != 3) throw Error(name + ": expected a (K, rows, cols) float array");
-  auto a = arr.unchecked<3>();
+  py::array arr;
+  try {
+    arr = ToFloatArray(stack);
+  } catch (const Error& e) {
+    throw Error(name + ": " + e.what());
+  }
+  if (arr.ndim() != 3)
+    throw Error(name + ": expected a (K, rows, cols) float array, got shape " + NumpyShapeString(arr));
+  auto a = arr.unchecked<double, 3>();
   std::vector<Eigen::MatrixXd> out(static_cast<size_t>(a.shape(0)), Eigen::MatrixXd(a.shape(1), a.shape(2)));
   for (py::ssize_t k = 0; k < a.shape(0); ++k)
     for (py::ssize_t i = 0; i < a.shape(1); ++i)
@@ -39,6 +112,8 @@ std::vector<Eigen::MatrixXd> MatrixList(const py::object& seq, const std::string
       out.push_back(item.cast<Eigen::MatrixXd>());
     } catch (const py::cast_error&) {
       throw Error(name + "[" + std::to_string(i) + "]: expected a 2-D float array");
+    } catch (const Error& e) {
+      throw Error(name + "[" + std::to_string(i) + "]: " + e.what());
     }
     ++i;
   }

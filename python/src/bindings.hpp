@@ -15,6 +15,9 @@
 #include <string>
 #include <vector>
 
+// The one array conversion (its casters replace pybind11's Eigen casters in every binding).
+#include "array_caster.hpp"
+
 namespace kfx::python {
 
 namespace py = pybind11;

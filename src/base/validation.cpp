@@ -80,7 +80,8 @@ void RequirePositiveSemidefinite(const std::string& name, const Eigen::Ref<const
             .eigenvalues()
             .minCoeff();
     std::ostringstream os;
-    os << name << ": expected a positive semidefinite matrix, got smallest eigenvalue " << min_eig;
+    os << name << ": expected a positive semidefinite matrix (smallest eigenvalue >= -" << tol
+       << " * max(1, max diagonal) = " << -tol * scale << "), got smallest eigenvalue " << min_eig;
     throw Error(os.str());
   }
 }
@@ -101,7 +102,10 @@ void RequirePositiveDefinite(const std::string& name, const Eigen::Ref<const Eig
             .eigenvalues()
             .minCoeff();
     std::ostringstream os;
-    os << name << ": expected a positive definite matrix, got smallest eigenvalue " << min_eig;
+    // The threshold is relative: a matrix whose condition number is above about 1/tol counts as singular.
+    os << name << ": expected a positive definite matrix (every Cholesky pivot > " << tol
+       << " * max diagonal = " << tol * scale << ", i.e. a condition number below about " << 1.0 / tol
+       << "), got smallest eigenvalue " << min_eig;
     throw Error(os.str());
   }
 }

@@ -54,15 +54,20 @@ void ValidateStep(const ModelStep& s, Eigen::Index n, Eigen::Index m, const std:
   RequireFinite(label + "A", s.A);
   RequireShape(label + "C", s.C, m, n);
   RequireFinite(label + "C", s.C);
-  RequireShape(label + "Q", s.Q, n, n);
-  RequirePositiveSemidefinite(label + "Q", s.Q);
-  RequireShape(label + "R", s.R, m, m);
-  RequirePositiveDefinite(label + "R", s.R);
-  if (s.B.size() > 0 || s.U.size() > 0) {
+  // B and U before Q: with a noise input, Q = B U B^T is derived from them, and a fault in U must
+  // be reported as U's (docs/robustness.md, class 12).
+  const bool noise_input = s.B.size() > 0 || s.U.size() > 0;
+  if (noise_input) {
     RequireShape(label + "B", s.B, n, -1);
     RequireFinite(label + "B", s.B);
     RequireShape(label + "U", s.U, s.B.cols(), s.B.cols());
     RequirePositiveSemidefinite(label + "U", s.U);
+  }
+  RequireShape(label + "Q", s.Q, n, n);
+  RequirePositiveSemidefinite(label + "Q", s.Q);
+  RequireShape(label + "R", s.R, m, m);
+  RequirePositiveDefinite(label + "R", s.R);
+  if (noise_input) {
     const Eigen::MatrixXd bub = s.B * s.U * s.B.transpose();
     const double scale = std::max(1.0, bub.cwiseAbs().maxCoeff());
     if ((bub - s.Q).cwiseAbs().maxCoeff() > 1e-10 * scale) {

@@ -59,7 +59,7 @@ template <typename Form>
 FilterRun RunLoop(const Model& model, const TimeSeries& y, const FilterRunOptions& options, int T) {
   const Eigen::Index m = model.meas_dim();
   FilterRun run = StartRun(model, T, options.store_covariances);
-  HealthMonitor monitor(options.monitor_health);
+  HealthMonitor monitor(options.monitor_health, options.monitor_eigenvalues);
   Form form(options.filter, model.state_dim());
   form.Start(model.m0(), model.P0());
   const auto& x = form.x();
@@ -140,6 +140,7 @@ FilterRun RunLoop(const Model& model, const TimeSeries& y, const FilterRunOption
   }
   run.log_likelihood = run.log_likelihood_terms.sum();
   run.health = monitor.Finish();
+  run.health_warning = HealthWarning(run.health, options.filter);
   return run;
 }
 

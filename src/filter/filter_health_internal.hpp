@@ -10,7 +10,8 @@ namespace kfx::detail {
 /// Accumulates FilterHealth over a run.
 class HealthMonitor {
  public:
-  explicit HealthMonitor(bool enabled);
+  /// eigenvalues: a symmetric eigendecomposition of every P_{k|k}, else only where Cholesky fails.
+  HealthMonitor(bool enabled, bool eigenvalues);
   /// Step k: filtered covariance P_{k|k}, innovation nu (observed entries) and its covariance S.
   void Observe(int k, const Eigen::Ref<const Eigen::MatrixXd>& P, const Eigen::Ref<const Eigen::VectorXd>& nu,
                const Eigen::Ref<const Eigen::MatrixXd>& S);
@@ -18,6 +19,7 @@ class HealthMonitor {
 
  private:
   FilterHealth h_;
+  bool eigenvalues_ = true;
 };
 
 /// @throws kfx::NumericalError naming step k if x, the diagonal of P or the likelihood term is not finite.

@@ -13,9 +13,19 @@ namespace kfx {
 
 namespace {
 
+// The one-step functions take an estimate and a step from the caller, so they check both as a Model
+// checks its prior and its steps (docs/robustness.md, class 10): x finite of length n, P n x n,
+// symmetric and PSD within kfx's tolerances; the step by ValidateStep. The KalmanFilter class steps
+// its own model (validated) and its own estimates, so it calls the form directly.
 void CheckEstimate(const Estimate& e, Eigen::Index n, const char* what) {
   RequireVector(std::string(what) + ".x", e.x, n);
   RequireShape(std::string(what) + ".P", e.P, n, n);
+  RequirePositiveSemidefinite(std::string(what) + ".P", e.P);
+}
+
+void CheckStep(const ModelStep& s) {
+  RequireSquare("step.A", s.A);
+  ValidateStep(s, s.A.rows(), s.C.rows(), "step.");
 }
 
 }  // namespace
@@ -59,6 +69,7 @@ bool KalmanFilterOptions::IsValid(std::string* error) const {
 
 Estimate Predict(const Estimate& e, const ModelStep& s, const KalmanFilterOptions& options) {
   const Eigen::Index n = s.A.rows();
+  CheckStep(s);
   CheckEstimate(e, n, "estimate");
   return detail::KalmanFormFor(options, n, s.C.rows()).Predict(e, s, options);
 }
@@ -66,6 +77,7 @@ Estimate Predict(const Estimate& e, const ModelStep& s, const KalmanFilterOption
 UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
                     const KalmanFilterOptions& options) {
   const Eigen::Index n = s.A.rows(), m = s.C.rows();
+  CheckStep(s);
   CheckEstimate(prior, n, "prior");
   if (y.size() != m) {
     throw Error("y: expected a measurement of length " + std::to_string(m) + ", got length " +
@@ -87,14 +99,21 @@ void KalmanFilter::Reset() {
 }
 
 void KalmanFilter::Predict() {
-  estimate_ = kfx::Predict(estimate_, *model_.step(k_ + 1), options_);
+  const StepPtr s = model_.step(k_ + 1);
+  estimate_ = detail::KalmanFormFor(options_, model_.state_dim(), model_.meas_dim()).Predict(estimate_, *s, options_);
   ++k_;
   predicted_ = true;
 }
 
 UpdateResult KalmanFilter::Update(const Eigen::Ref<const Eigen::VectorXd>& y) {
   if (!predicted_) throw Error("Update: expected a Predict() before each Update() (k = " + std::to_string(k_) + ")");
-  UpdateResult r = kfx::Update(estimate_, *model_.step(k_), y, options_);
+  if (y.size() != model_.meas_dim()) {
+    throw Error("y: expected a measurement of length " + std::to_string(model_.meas_dim()) + ", got length " +
+                std::to_string(y.size()));
+  }
+  const StepPtr s = model_.step(k_);
+  UpdateResult r =
+      detail::KalmanFormFor(options_, model_.state_dim(), model_.meas_dim()).Update(estimate_, *s, y, options_);
   estimate_ = r.estimate;
   predicted_ = false;
   return r;

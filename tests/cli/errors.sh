@@ -30,7 +30,7 @@ write_model() {  # write_model FILE JSON
 }
 
 expect_error "subcommand" --
-expect_error "frobnicate\|subcommand" -- frobnicate
+expect_error "unknown subcommand 'frobnicate' (expected one of: simulate" -- frobnicate
 expect_error "no-such-option" -- simulate "$model" -o "$tmp/x" --no-such-option
 expect_error "does-not-exist.json" -- simulate "$tmp/does-not-exist.json" -o "$tmp/x"
 expect_error "paper" -- reproduce nonsense-paper

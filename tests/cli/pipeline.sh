@@ -24,6 +24,23 @@ test -s "$tmp/s/x_smooth.npy"
 # Missing measurements: blank a value in the CSV and filter again.
 awk 'NR==4{$0="nan"}1' "$tmp/simcsv/y.csv" > "$tmp/ymiss.csv"
 "$kfx" filter "$model" --data "$tmp/ymiss.csv" -o "$tmp/fm" | grep -q "1 missing"
+# Health checks by default (docs/robustness.md, class 8): none on a healthy run; on case (C)
+# (Q = 0, R = 1e-12, P0 = 1e6 I) the Joseph form's wrong covariances give one warning naming the
+# form to use and "health" in summary.json; the UD form none; --no-health turns the checks off.
+"$kfx" filter "$model" --data "$tmp/sim/y.npy" -o "$tmp/fh" > /dev/null 2> "$tmp/fh.err"
+test ! -s "$tmp/fh.err"
+grep -q '"healthy": true' "$tmp/fh/summary.json"
+printf '{"A": [[1, 1], [0, 1]], "C": [[1, 0]], "Q": [[0, 0], [0, 0]], "R": [[1e-12]], "m0": [0, 0], "P0": [[1e6, 0], [0, 1e6]]}' > "$tmp/case_c.json"
+"$kfx" simulate "$tmp/case_c.json" --steps 3000 --seed 17 -o "$tmp/csim" > /dev/null
+"$kfx" filter "$tmp/case_c.json" --data "$tmp/csim/y.npy" -o "$tmp/cj" > /dev/null 2> "$tmp/cj.err"
+test "$(wc -l < "$tmp/cj.err")" -eq 1
+grep -q "^kfx: warning: .*not positive definite.*--form ud" "$tmp/cj.err"
+grep -q '"healthy": false' "$tmp/cj/summary.json"
+"$kfx" filter "$tmp/case_c.json" --data "$tmp/csim/y.npy" --form ud -o "$tmp/cu" > /dev/null 2> "$tmp/cu.err"
+test ! -s "$tmp/cu.err"
+"$kfx" filter "$tmp/case_c.json" --data "$tmp/csim/y.npy" --no-health -o "$tmp/cn" > /dev/null 2> "$tmp/cn.err"
+test ! -s "$tmp/cn.err"
+if grep -q '"health"' "$tmp/cn/summary.json"; then echo "--no-health wrote health"; exit 1; fi
 "$kfx" analyze "$model" --monte-carlo 50 --steps 5 --json "$tmp/a.json" > "$tmp/a.txt"
 grep -q "filter gain" "$tmp/a.txt"
 grep -q "predictor gain" "$tmp/a.txt"

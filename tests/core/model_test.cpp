@@ -148,5 +148,26 @@ TEST(Model, ZeroDimensionsAreRejectedNamingTheMatrix) {
             1);
 }
 
+// Class 12 of docs/robustness.md: a message blames the matrix at fault and states the threshold.
+TEST(Model, MessagesBlameTheMatrixAtFaultAndStateTheThreshold) {
+  const VectorXd m0 = VectorXd::Zero(2);
+  const MatrixXd P0 = MatrixXd::Identity(2, 2);
+  const ModelStep g = GoodStep();
+  // An indefinite U: Q = B U B^T is derived from it, so U is named, not Q.
+  const ModelStep noise =
+      MakeStepWithNoiseInput(g.A, (MatrixXd(2, 1) << 0, 1).finished(), -MatrixXd::Ones(1, 1), g.C, g.R);
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { Model(noise, m0, P0); }, "U:", {"semidefinite"}));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { Model(std::vector<ModelStep>{g, noise}, m0, P0); }, "step 2: U:"));
+  // R with condition number 1e13 (smallest eigenvalue 1e-13 > 0) is rejected by the relative
+  // threshold 1e-12, and the message says so.
+  ModelStep r = g;
+  r.C = MatrixXd::Identity(2, 2);
+  r.R = (VectorXd(2) << 1.0, 1e-13).finished().asDiagonal();
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+      [&] { Model(r, m0, P0); }, "R:", {"positive definite", "condition number below about 1e+12", "1e-13"}));
+  r.R(1, 1) = 1e-11;  // condition number 1e11: accepted
+  EXPECT_NO_THROW(Model(r, m0, P0));
+}
+
 }  // namespace
 }  // namespace kfx

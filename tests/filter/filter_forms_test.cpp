@@ -3,6 +3,7 @@
 // (A), (B), (C) of docs/robustness.md, and the health monitor (symmetry, definiteness, NIS).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -386,6 +387,38 @@ TEST(RobustFilter, InvalidFormIsRejected) {
   std::string why;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("form"), std::string::npos);
+}
+
+// Class 8 of docs/robustness.md: on case (C) the Joseph form ends far from the closed form and the
+// standard form collapses; the cheap checks (Cholesky and NIS only, the CLI's and Python's default)
+// catch both and the warning names the form to use; the UD form passes them with no warning.
+TEST(FilterHealth, CheapChecksWarnOnCaseCAndNameTheFormToUse) {
+  const Model model = CaseC();
+  const TimeSeries y = Simulate(model, {3000, 17}).y;  // data from the model: the NIS is consistent
+  for (const NamedForm& f : {kJoseph, kStandard, kUd, kSqrt}) {
+    SCOPED_TRACE(f.name);
+    FilterRunOptions o = RunOptions(f);
+    o.monitor_health = true;
+    o.monitor_eigenvalues = false;
+    const FilterRun run = RunFilter(model, y, o);
+    double error = 0.0;  // max over k, as in the table of docs/robustness.md
+    for (int k = 1; k <= 3000; ++k) error = std::max(error, testing::RelativeDifference(run.P_filt[k], CaseCExact(k)));
+    if (f.form == FilterForm::kConventional) {
+      EXPECT_GT(error, 0.1);  // wrong: measured 0.38 (Joseph), 1.0 (standard) over the run
+      EXPECT_GT(run.health.cholesky_failures, 0);
+      EXPECT_LT(run.health.min_eigenvalue, std::numeric_limits<double>::infinity());
+      EXPECT_NE(run.health_warning.find("not positive definite"), std::string::npos) << run.health_warning;
+      EXPECT_NE(run.health_warning.find("--form ud"), std::string::npos) << run.health_warning;
+    } else {
+      EXPECT_LT(error, 1e-6);
+      EXPECT_EQ(run.health.cholesky_failures, 0);
+      // Cheap mode: no eigendecomposition where the factorization succeeded.
+      EXPECT_EQ(run.health.min_eigenvalue, std::numeric_limits<double>::infinity());
+      EXPECT_EQ(run.health_warning, "") << run.health_warning;
+    }
+  }
+  // Not monitored: no warning, whatever happened.
+  EXPECT_EQ(RunFilter(model, y, RunOptions(kJoseph)).health_warning, "");
 }
 
 }  // namespace

@@ -407,5 +407,48 @@ TEST(KalmanFilter, RunValidatesData) {
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { RunFilter(model, y); }, "row 1"));
 }
 
+// Class 10 of docs/robustness.md: the one-step functions check the estimate and the step as a Model
+// checks its prior and steps (symmetric PSD within kfx's tolerances), for every form.
+TEST(KalmanFilter, StepFunctionsValidateTheEstimateAndTheStep) {
+  const ModelStep s = Dwna(1.0, 0.5, 1.0);
+  const VectorXd x = VectorXd::Zero(2), y = VectorXd::Ones(1);
+  const MatrixXd indefinite = (MatrixXd(2, 2) << 1, 2, 2, 1).finished();  // eigenvalues 3, -1
+  const MatrixXd asymmetric = (MatrixXd(2, 2) << 1, 0.5, 0, 1).finished();
+  for (const FilterForm form : EnumValues<FilterForm>::kAll) {
+    KalmanFilterOptions o;
+    o.form = form;
+    SCOPED_TRACE(ToString(form));
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+        [&] {
+          Predict({x, indefinite}, s, o);
+        },
+        "estimate.P:", {"semidefinite"}));
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+        [&] {
+          Update({x, indefinite}, s, y, o);
+        },
+        "prior.P:", {"semidefinite"}));
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { Update({x, asymmetric}, s, y, o); }, "prior.P:", {"symmetric"}));
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith(
+        [&] {
+          Predict({VectorXd::Constant(2, kNaN), MatrixXd::Identity(2, 2)}, s, o);
+        },
+        "estimate.x:"));
+    // A step that was never validated: indefinite Q, R not positive definite.
+    ModelStep bad = s;
+    bad.Q = indefinite;
+    bad.B.resize(0, 0);
+    bad.U.resize(0, 0);
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { Predict({x, MatrixXd::Identity(2, 2)}, bad, o); }, "step.Q:"));
+    bad = s;
+    bad.R = Scalar(-1.0);
+    EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { Update({x, MatrixXd::Identity(2, 2)}, bad, y, o); }, "step.R:"));
+    // Within the tolerance (a rounding-level negative eigenvalue of -1e-14 on a unit scale) it is accepted.
+    // (The information form needs P > 0 and says so itself.)
+    const MatrixXd psd_rounded = (MatrixXd(2, 2) << 1, 1, 1, 1 - 1e-14).finished();
+    if (form != FilterForm::kInformation) EXPECT_NO_THROW(Predict({x, psd_rounded}, s, o));
+  }
+}
+
 }  // namespace
 }  // namespace kfx

@@ -352,19 +352,21 @@ def test_errors_are_value_errors_naming_the_argument(cv):
     expect_error(lambda: setattr(kf, "update_form", "other"), "update_form")
     expect_error(lambda: kfx.KalmanFilter(0, 1), "dim_x")
     kf.predict()
-    expect_error(lambda: kf.update(np.zeros(2)), "y", "length 1")
+    expect_error(lambda: kf.update(np.zeros(2)), "z", "length 1")
     expect_error(lambda: kf.batch_filter(np.zeros((4, 2))), "zs")
     expect_error(lambda: kf.rts_smoother(np.zeros((4, 2)), np.zeros((3, 2, 2))), "Ps")
-    with pytest.raises(TypeError):
-        kfx.solve_filter_dare("A", np.eye(1), np.eye(1), np.eye(1))
+    expect_error(lambda: kfx.solve_filter_dare("A", np.eye(1), np.eye(1), np.eye(1)), "real numbers")
 
 
 def test_numerical_breakdown_raises_numerical_error():
-    # An estimate whose covariance is not PSD (kfx.update does not validate P) makes S = C P C^T + R
-    # indefinite: a numerical breakdown, kfx.NumericalError, not a silently wrong number.
+    # Valid inputs whose S = C P C^T + R is singular in floating point (C of rank 1, R = 1e-40 I below
+    # the rounding of C P C^T = [[2, 2], [2, 2]]): a numerical breakdown, kfx.NumericalError, not a
+    # silently wrong number. (An indefinite P is refused by kfx.Estimate itself: test_inputs.py.)
+    step = kfx.ModelStep(A=np.eye(2), C=np.ones((2, 2)), Q=np.zeros((2, 2)), R=1e-40 * np.eye(2))
+    est = kfx.Estimate(np.zeros(2), np.eye(2))
+    expect_error(lambda: kfx.update(est, step, np.array([1.0, 1.0])), "innovation covariance",
+                 exc=kfx.NumericalError)
     step = kfx.ModelStep(A=np.eye(1), C=np.ones((1, 1)), Q=np.zeros((1, 1)), R=np.ones((1, 1)))
-    est = kfx.Estimate(np.zeros(1), -2.0 * np.ones((1, 1)))
-    expect_error(lambda: kfx.update(est, step, np.array([1.0])), "innovation covariance", exc=kfx.NumericalError)
     ok = kfx.update(kfx.Estimate(np.zeros(1), np.ones((1, 1))), step, np.array([1.0]))
     assert ok.estimate.x[0] == pytest.approx(0.5) and ok.gain[0, 0] == pytest.approx(0.5)
 

@@ -324,6 +324,32 @@ TEST(DareDiagnosis, UnobservedUnstableModeDrivenByNoiseIsNotDetectable) {
   }
 }
 
+// Class 9 of docs/robustness.md: an observable pair whose A has entries of 1e100 was called
+// not_detectable (the unscaled PBH test compares 1 in C with 1e100 in A). The equilibrated test
+// finds no defect, so no false reason is given: the DARE either succeeds or the outcome is
+// "undecided (badly scaled)". A true defect in a badly scaled model is still found when it is exact.
+TEST(DareDiagnosis, BadlyScaledObservablePairGetsNoFalseReason) {
+  const MatrixXd C = (MatrixXd(1, 2) << 1, 1).finished();
+  const MatrixXd Q = MatrixXd::Identity(2, 2), R = MatrixXd::Ones(1, 1);
+  for (const double big : {1e100, 1e30}) {
+    const MatrixXd A = (MatrixXd(2, 2) << big, 1, 0, 0.5).finished();
+    for (DareMethod method : {DareMethod::kAuto, DareMethod::kDoubling, DareMethod::kSchur}) {
+      const DareSolution s = SolveFilterDare(A, C, Q, R, WithMethod(method));
+      SCOPED_TRACE(ToString(method));
+      EXPECT_NE(s.summary.termination, Termination::kNotDetectable) << s.summary.FullReport();
+      EXPECT_NE(s.summary.termination, Termination::kNotStabilizable) << s.summary.FullReport();
+      if (!s.summary.ok()) {
+        EXPECT_EQ(s.summary.termination, Termination::kUndecided) << s.summary.FullReport();
+        EXPECT_NE(s.summary.message.find("undecided (badly scaled)"), std::string::npos) << s.summary.message;
+      }
+    }
+  }
+  // Mode 0.5 -> 2 unobserved (C = [1, 0]) and driven by noise, beside a 1e100 mode: an exact defect.
+  const MatrixXd A = (MatrixXd(2, 2) << 1e100, 0, 0, 2).finished();
+  const DareSolution s = SolveFilterDare(A, (MatrixXd(1, 2) << 1, 0).finished(), Q, R);
+  EXPECT_EQ(s.summary.termination, Termination::kNotDetectable) << s.summary.FullReport();
+}
+
 TEST(DareDiagnosis, UnobservedUnstableModeWithoutNoiseIsNotDetectable) {
   // P = diag(0, p22) solves the DARE, but the closed loop keeps lambda = 1.2 (a rotated basis, so
   // that the unobservable direction is not a coordinate axis).

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "base/lapack_eigen.hpp"
+#include "base/stagnation.hpp"
 #include "kfx/block_diagonal.hpp"
 #include "kfx/error.hpp"
 #include "kfx/performance.hpp"
@@ -24,6 +25,15 @@ using Eigen::VectorXd;
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The steady-state iterations stop at their rounding floor when it lies above the tolerance (the
+// floor depends on the BLAS kernel; docs/robustness.md, class 15).
+void ConvergedAtFloor(const detail::StagnationDetector& floor, const SteadyStateOptions& options, Summary* sum) {
+  sum->termination = Termination::kConverged;
+  sum->message = "converged to the rounding floor: the relative change stagnated at " + FormatNumber(floor.floor()) +
+                 " (tolerance " + FormatNumber(options.tolerance) + ")";
+  sum->SetDetail("rounding_floor", FormatNumber(floor.floor()));
+}
 
 double Norm2(const MatrixXd& m) {
   if (m.size() == 0) return 0.0;
@@ -118,6 +128,7 @@ BlockDiagonalSteadyState SolveBlockDiagonalSteadyState(const CoupledStep& s, con
   MatrixXd P = MatrixXd::Zero(s.c(), s.n() * s.c());
   Analyze("block-diagonal steady state", "iteration of eq. (19) from 0", &sum, [&] {
     sum.termination = Termination::kNotConverged;
+    detail::StagnationDetector floor;
     for (int it = 1; it <= options.max_iterations; ++it) {
       BlockDiagonalCovarianceStep st = BlockDiagonalCovarianceUpdate(s, P);
       const double change = (st.P_filt - P).norm(), size = st.P_filt.norm();
@@ -136,6 +147,7 @@ BlockDiagonalSteadyState SolveBlockDiagonalSteadyState(const CoupledStep& s, con
         sum.termination = Termination::kConverged;
         return;
       }
+      if (floor.Observe(sum.relative_change)) return ConvergedAtFloor(floor, options, &sum);
     }
     sum.message = "maximum iterations reached";
   });
@@ -336,6 +348,7 @@ void IdenticalBlockSteadyState(const IdenticalSubsystems& sys, double nn, const 
   MatrixXd X = MatrixXd::Zero(sys.F.rows(), sys.F.rows());
   Analyze("block-diagonal steady state", "iteration of eq. (19) on the two modes", sum, [&] {
     sum->termination = Termination::kNotConverged;
+    detail::StagnationDetector floor;
     for (int it = 1; it <= options.max_iterations; ++it) {
       MatrixXd L = sys.F * X * sys.F.transpose() + sys.V;
       Symmetrize(L);
@@ -359,6 +372,7 @@ void IdenticalBlockSteadyState(const IdenticalSubsystems& sys, double nn, const 
         sum->termination = Termination::kConverged;
         return;
       }
+      if (floor.Observe(sum->relative_change)) return ConvergedAtFloor(floor, options, sum);
     }
     sum->message = "maximum iterations reached";
   });

@@ -343,10 +343,12 @@ void ValidateErrorRanges(const ModelStep& design, const ErrorRanges& ranges) {
 
 ErrorNorms ErrorNormsFromRanges(const ErrorRanges& ranges) {
   ErrorNorms e;
-  e.A = ranges.A.norm();
-  e.C = ranges.C.norm();
-  e.Q = ranges.Q.norm();
-  e.R = ranges.R.norm();
+  // stableNorm: the plain sqrt(sum of squares) overflows from entries of about 1e154 on, and a
+  // range of 1e308 is valid (docs/robustness.md, class 12).
+  e.A = ranges.A.stableNorm();
+  e.C = ranges.C.stableNorm();
+  e.Q = ranges.Q.stableNorm();
+  e.R = ranges.R.stableNorm();
   e.A_diagonal_abs_sum = ranges.A.size() > 0 ? ranges.A.diagonal().cwiseAbs().sum() : 0.0;
   return e;
 }

@@ -52,8 +52,13 @@ double MinEigenvalueSym(const MatrixXd& m) {
 
 void RequireNorms(const ErrorNorms& e) {
   const double v[5] = {e.A, e.C, e.Q, e.R, e.A_diagonal_abs_sum};
-  for (double x : v)
-    if (!(x >= 0.0) || !std::isfinite(x)) throw Error("norms: expected finite non-negative error norms");
+  const char* names[5] = {"|dA|_F", "|dC|_F", "|dQ|_F", "|dR|_F", "sum |dA_ii|"};
+  for (int i = 0; i < 5; ++i) {
+    if (!(v[i] >= 0.0) || !std::isfinite(v[i])) {
+      throw Error(std::string("norms: expected finite non-negative error norms, got ") + names[i] + " = " +
+                  std::to_string(v[i]) + " (for error ranges: their norm exceeds the range of double)");
+    }
+  }
 }
 
 void RequirePlantExact(const ErrorNorms& e, const char* theorem) {

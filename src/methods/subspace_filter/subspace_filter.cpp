@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "base/stagnation.hpp"
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
 
@@ -218,6 +219,8 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
   out.pinv_rank.push_back(0);
   MatrixXd K, V, St_pinv;
   int small_changes = 0;
+  detail::StagnationDetector floor_detector;
+  double rounding_floor = 0.0;
   int k = 0;
   bool failed = false;
   const bool want_P = options.store_covariances || options.rde_check;
@@ -299,9 +302,16 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     if (k > 1) {
       sum.relative_change = std::max(RelativeChange(K, K_prev), RelativeChange(QS, QS_prev));
       small_changes = sum.relative_change <= options.tolerance ? small_changes + 1 : 0;
+      const bool at_floor = floor_detector.Observe(sum.relative_change);
       if (small_changes >= options.patience && !sum.ok()) {
         sum.termination = Termination::kConverged;
         out.converged_at = k - options.patience + 1;
+      } else if (at_floor && !sum.ok()) {
+        // The changes stopped shrinking above the tolerance: the schedule is as settled as this
+        // machine's rounding allows (docs/robustness.md, class 15).
+        sum.termination = Termination::kConverged;
+        out.converged_at = k - detail::StagnationDetector::kWindow + 1;
+        rounding_floor = floor_detector.floor();
       }
     }
     K_prev = K;
@@ -315,6 +325,11 @@ SubspaceFilterSchedule ComputeSubspaceFilterSchedule(const ModelStep& truth, con
     sum.message = "the gain and output map did not settle within " + std::to_string(T_max) +
                   " steps (relative change " + FormatNumber(sum.relative_change) + " > tolerance " +
                   FormatNumber(options.tolerance) + ")";
+  } else if (sum.ok() && rounding_floor > 0.0) {
+    sum.message = "converged at step " + std::to_string(out.converged_at) + " to the rounding floor: the relative " +
+                  "change stagnated at " + FormatNumber(rounding_floor) + " (tolerance " +
+                  FormatNumber(options.tolerance) + ")";
+    sum.SetDetail("rounding_floor", FormatNumber(rounding_floor));
   } else if (sum.ok()) {
     sum.message = "converged at step " + std::to_string(out.converged_at);
   }

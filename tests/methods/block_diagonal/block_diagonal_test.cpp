@@ -9,6 +9,7 @@
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <string>
 
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
@@ -388,6 +389,24 @@ TEST(BlockDiagonalSteadyState, IsTheFixedPointAndTheLimitFromAnyStart) {
   MatrixXd P = PackedSpd(rng, c, n, 5.0);
   for (int k = 0; k < 400; ++k) P = BlockDiagonalCovarianceUpdate(s, P).P_filt;
   EXPECT_LE(RelativeDifference(P, ss.P_filt), 1e-10);
+}
+
+// Class 15 of docs/robustness.md: a tolerance below the iteration's rounding floor ends at the floor
+// (converged, the floor in the Summary) instead of running max_iterations; same fixed point.
+TEST(BlockDiagonalSteadyState, ToleranceBelowTheRoundingFloorStopsAtTheFloor) {
+  TestRng rng(61);
+  const CoupledStep s = RandomStep(rng, 5, 2, 1, 2);
+  const BlockDiagonalSteadyState reached = SolveBlockDiagonalSteadyState(s);
+  ASSERT_TRUE(reached.summary.ok()) << reached.summary.BriefReport();
+  EXPECT_EQ(reached.summary.Detail("rounding_floor"), "");
+  SteadyStateOptions o;
+  o.tolerance = 1e-18;
+  const BlockDiagonalSteadyState floor = SolveBlockDiagonalSteadyState(s, o);
+  ASSERT_TRUE(floor.summary.ok()) << floor.summary.FullReport();
+  EXPECT_LT(floor.summary.iterations, o.max_iterations);
+  ASSERT_NE(floor.summary.Detail("rounding_floor"), "") << floor.summary.FullReport();
+  EXPECT_GT(std::stod(floor.summary.Detail("rounding_floor")), 1e-18);
+  EXPECT_LE(RelativeDifference(floor.P_filt, reached.P_filt), 1e-12);
 }
 
 TEST(BlockDiagonalSteadyState, BandedSteadyStateIsPerBlockDare) {

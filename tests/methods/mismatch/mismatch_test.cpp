@@ -445,5 +445,29 @@ TEST(MismatchOutcomes, AnUnstableFilterIsReportedNotThrown) {
   EXPECT_NE(u.summary.message.find("true system is unstable"), std::string::npos) << u.summary.message;
 }
 
+// Class 12 of docs/robustness.md: a range of 1e308 is valid. Its Frobenius norm is representable
+// (closed form: sqrt(2) * 1e308 for two such entries), so the bounds are computed, never an
+// error about an internal name; only a norm above the double range is an error, and it says so.
+TEST(MismatchBounds, HugeButRepresentableRangesGiveBounds) {
+  const ModelStep design =
+      MakeStep(MatrixXd::Constant(1, 1, 0.5), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1), MatrixXd::Ones(1, 1));
+  ErrorRanges noise;
+  noise.Q = MatrixXd::Constant(1, 1, 1e308);
+  noise.R = MatrixXd::Constant(1, 1, 1e308);
+  const ErrorNorms e = ErrorNormsFromRanges(noise);
+  EXPECT_DOUBLE_EQ(e.Q, 1e308);
+  EXPECT_DOUBLE_EQ(e.R, 1e308);
+  EXPECT_DOUBLE_EQ(ErrorNormsFromRanges({MatrixXd::Constant(1, 2, 1e308), {}, {}, {}}).A, std::sqrt(2.0) * 1e308);
+  const PatelTodaBounds b = ComputePatelTodaBounds(design, noise);
+  EXPECT_TRUE(b.summary.ok()) << b.summary.message;
+  ASSERT_TRUE(b.pi3.has_value());
+  EXPECT_FALSE(b.pi5.has_value());
+  // A norm beyond the double range (three entries of 1.7e308) is named with what overflowed.
+  ErrorNorms over;
+  over.Q = ErrorNormsFromRanges({{}, {}, MatrixXd::Constant(1, 3, 1.7e308), {}}).Q;
+  EXPECT_TRUE(std::isinf(over.Q));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Theorem3Bound(b.terms, over); }, "|dQ|_F"));
+}
+
 }  // namespace
 }  // namespace kfx

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "kfx/damped_wave.hpp"
 #include "kfx/error.hpp"
@@ -201,6 +202,37 @@ TEST(SubspaceFilterTest, ScheduleMayCycleInsteadOfConverging) {
   const size_t T = 2000;
   EXPECT_LT(RelativeDifference(s.output_map[T], s.output_map[T - 2]), 1e-10);
   EXPECT_LT(RelativeDifference(s.gain[T], s.gain[T - 2]), 1e-10);
+}
+
+// Class 15 of docs/robustness.md: a tolerance below the rounding floor of the iteration (here 1e-17,
+// standing in for the 1e-10 that one BLAS kernel cannot reach on the paper-000 problem) still ends:
+// at the floor, as converged, with the floor in the Summary, and the schedule agrees with the one
+// that met the default tolerance.
+TEST(SubspaceFilterTest, ToleranceBelowTheRoundingFloorStopsAtTheFloor) {
+  TestRng rng(12);
+  const Eigen::Index N = 6, m = 2;
+  const ModelStep st = MakeStepWithNoiseInput(rng.WithSpectralRadius(N, 0.95), rng.Gaussian(N, 2), rng.Spd(2),
+                                              rng.Gaussian(m, N), rng.Spd(m, 0.3));
+  Subspace identity;
+  identity.projection = MatrixXd::Identity(N, N);
+  const MatrixXd S0 = rng.Spd(N);
+  SubspaceFilterOptions o;
+  o.store_schedule = false;
+  const SubspaceFilterSchedule reached = ComputeSubspaceFilterSchedule(st, S0, identity, o);
+  ASSERT_TRUE(reached.summary.ok()) << reached.summary.message;
+  EXPECT_EQ(reached.summary.Detail("rounding_floor"), "");
+  o.tolerance = 1e-17;
+  const SubspaceFilterSchedule floor = ComputeSubspaceFilterSchedule(st, S0, identity, o);
+  ASSERT_TRUE(floor.summary.ok()) << floor.summary.message;
+  EXPECT_LT(floor.steps, o.max_steps);
+  const std::string level = floor.summary.Detail("rounding_floor");
+  ASSERT_NE(level, "") << floor.summary.message;
+  EXPECT_GT(std::stod(level), 1e-17);
+  EXPECT_LT(std::stod(level), 1e-12);
+  EXPECT_NE(floor.summary.message.find("rounding floor"), std::string::npos) << floor.summary.message;
+  EXPECT_LT(RelativeDifference(floor.K, reached.K), 1e-9);
+  std::printf("tolerance 1e-10: converged at step %d; tolerance 1e-17: stopped at step %d, floor %s\n",
+              reached.converged_at, floor.steps, level.c_str());
 }
 
 TEST(SubspaceFilterTest, RejectsBadInput) {
