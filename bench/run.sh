@@ -7,21 +7,28 @@ build=${1:?usage: bench/run.sh BUILD_DIR}
 out="$build/bench-results"
 mkdir -p "$out"
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+# The kernel, chosen as the kfx CLI chooses it (bench/blas_kernel.py, docs/performance.md).
+here=$(cd "$(dirname "$0")" && pwd)
+eval "$(/usr/bin/python3 "$here/blas_kernel.py" "$build/bench/kfx_peers")"
 for b in bench_dgemm bench_kalman bench_riccati bench_block_diagonal; do
   echo "running $b ..." >&2
   "$build/bench/$b" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
     --benchmark_out="$out/$b.json" --benchmark_out_format=json > /dev/null
 done
-/usr/bin/python3 - "$out" <<'PY'
+/usr/bin/python3 - "$out" "$here" "$build/bench/kfx_peers" <<'PY'
 import json, sys, os, re
 out = sys.argv[1]
+sys.path.insert(0, sys.argv[2])
+import blas_kernel
 def load(name):
     with open(os.path.join(out, name + ".json")) as f:
         return [b for b in json.load(f)["benchmarks"] if b.get("aggregate_name") == "median"]
 dg = load("bench_dgemm")[0]["GFLOP"]
 ctx = json.load(open(os.path.join(out, "bench_dgemm.json")))["context"]
-print(f"Machine: {ctx.get('num_cpus')} CPUs at {ctx.get('mhz_per_cpu')} MHz, one BLAS thread; "
+print(f"Machine: {ctx.get('num_cpus')} CPUs at {ctx.get('mhz_per_cpu')} MHz, load average "
+      f"{os.getloadavg()[0]:.1f} at the end, one BLAS thread; "
       f"measured DGEMM (n = 1000): **{dg:.1f} GFLOP/s**. Medians of 5 repetitions.\n")
+print(blas_kernel.line(blas_kernel.choose(sys.argv[3]), dg) + "\n")
 print("| Kalman filter step (predict + Joseph update) | n | m | time | GFLOP/s | fraction of DGEMM |")
 print("|---|---|---|---|---|---|")
 for b in load("bench_kalman"):

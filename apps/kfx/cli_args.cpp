@@ -159,6 +159,13 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
       ->check(CLI::IsMember(BlockDiagFilterChoices()));
   AddIntegerOption(c_bd, "--granule", bd.granule, 1, 1000000000ULL, "Subsystems per partition unit (default 1024)");
   AddIntegerOption(c_bd, "--steps", bd.steps, 0, kMaxInt, "Number of steps (default: all rows of the data)");
+
+  InfoArgs& info = out->info;
+  auto* c_info = app.add_subcommand(
+      "info", "The BLAS/LAPACK in use: libraries, versions, kernel against the CPU, threads, measured DGEMM rate");
+  c_info->add_flag("--json", info.json, "Print JSON (the benchmarks read it)");
+  c_info->add_option("--seconds", info.seconds, "Time spent measuring the DGEMM rate (default 0.2)")
+      ->check(CLI::Range(0.001, 60.0));
 }
 
 int CommandLineParser::Parse(int argc, const char* const* argv, CommandLine* out) {

@@ -45,6 +45,11 @@ struct BlockDiagArgs {
   int steps = -1;
 };
 
+struct InfoArgs {
+  bool json = false;     ///< print JSON instead of "key: value" lines
+  double seconds = 0.2;  ///< time spent measuring the DGEMM rate
+};
+
 struct CommandLine {
   std::string command;  ///< the subcommand given
   SimulateArgs sim;
@@ -53,6 +58,7 @@ struct CommandLine {
   MismatchArgs mis;
   ReproduceArgs rep;
   BlockDiagArgs bd;
+  InfoArgs info;
 };
 
 /// The values of `--form` (filter, smooth): joseph, standard, sqrt, ud, information. Listed here, not derived

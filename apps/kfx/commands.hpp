@@ -1,6 +1,6 @@
 #pragma once
 // The subcommands of kfx, one source file each (simulate.cpp, filter.cpp, analyze.cpp, mismatch.cpp,
-// reproduce.cpp, blockdiag.cpp): the entry points main.cpp dispatches to. Each returns the exit code;
+// reproduce.cpp, blockdiag.cpp, info.cpp): the entry points main.cpp dispatches to. Each returns the exit code;
 // bad input throws kfx::Error, which main.cpp prints as one line (exit code 2).
 #include "cli_args.hpp"
 
@@ -31,5 +31,16 @@ int RunReproduce(const ReproduceArgs& args);
 /// MPI when kfx is built with KFX_WITH_MPI (mpirun -np N kfx blockdiag ...), else in one process. With MPI,
 /// argc and argv go to MPI_Init, and errors are printed here (one line, by the rank that failed): exit code 2.
 int RunBlockDiag(int argc, char** argv, const BlockDiagArgs& args);
+
+/// `kfx info [--json]`: the BLAS and LAPACK libraries, versions, the kernel in use against the CPU's best
+/// vector level (with advice when it is below), threads, the kernel self-test and a measured DGEMM rate.
+/// Exit code 1 when the kernel self-test fails.
+int RunInfo(const InfoArgs& args);
+
+/// Called first in main: when the OpenBLAS kernel the library chose is below the CPU (ChooseBlasKernel),
+/// re-executes kfx with OPENBLAS_CORETYPE set; the re-executed process keeps that kernel only if it loaded
+/// and passes CheckBlasKernel, else re-executes once more with the library's own choice (docs/performance.md).
+/// KFX_BLAS_KERNEL=library or a user's OPENBLAS_CORETYPE turn it off. Returns when nothing is to change.
+void ChooseKernelBeforeRun(char** argv);
 
 }  // namespace kfx::cli

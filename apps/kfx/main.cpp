@@ -27,6 +27,7 @@ int Main(int argc, char** argv) {
   if (cl.command == "mismatch") return RunMismatch(cl.mis);
   if (cl.command == "reproduce") return RunReproduce(cl.rep);
   if (cl.command == "blockdiag") return RunBlockDiag(argc, argv, cl.bd);
+  if (cl.command == "info") return RunInfo(cl.info);
   return 2;
 }
 
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
     return msg;
   };
   try {
+    kfx::cli::ChooseKernelBeforeRun(argv);
     return kfx::cli::Main(argc, argv);
   } catch (const kfx::Error& e) {
     std::fprintf(stderr, "kfx: error: %s\n", one_line(e.what()).c_str());

@@ -4,6 +4,8 @@
 // checks in peers.py, and prints one JSON object on stdout. Times are process CPU seconds
 // (CLOCK_PROCESS_CPUTIME_ID), one BLAS thread (the caller sets OPENBLAS_NUM_THREADS=1).
 //
+//   kfx_peers blas                       the BLAS in use, its kernel self-test and the kernel ChooseBlasKernel
+//                                        would ask for (bench/blas_kernel.py decides with it)
 //   kfx_peers dgemm REPS                 single-thread DGEMM rate (n = 1000, Eigen -> OpenBLAS)
 //   kfx_peers dare DIR N REPS            SolveFilterDare vs SB02OD on DIR/dare_N_{A,C,Q,R}.npy
 //   kfx_peers lyap DIR N REPS            SolveDiscreteLyapunov vs SB03MD on DIR/lyap_N_{A,Q}.npy
@@ -21,6 +23,7 @@
 #include <vector>
 
 #include "base/lapack_fortran.hpp"
+#include "kfx/blas_info.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/riccati.hpp"
@@ -267,11 +270,34 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
   return 0;
 }
 
+// One JSON object: the BLAS/LAPACK in this process (kfx/blas_info.hpp) and the kernel the CPU would take.
+int Blas() {
+  const kfx::BlasInfo b = kfx::QueryBlasInfo();
+  const kfx::CpuInfo cpu = kfx::DetectCpu();
+  double err = 0;
+  const bool ok = kfx::CheckBlasKernel(&err);
+  auto q = [](const std::string& s) {
+    std::string r = "\"";
+    for (char c : s) r += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+    return r + "\"";
+  };
+  std::cout << "{\"blas_library\": " << q(b.blas_library) << ", \"lapack_library\": " << q(b.lapack_library)
+            << ", \"lapack_version\": " << q(b.lapack_version) << ", \"blas_config\": " << q(b.config)
+            << ", \"kernel\": " << q(b.core_name)
+            << ", \"kernel_simd\": " << q(kfx::ToString(kfx::KernelSimdLevel(b.core_name)))
+            << ", \"threads\": " << b.threads << ", \"cpu\": " << q(cpu.model)
+            << ", \"cpu_simd\": " << q(kfx::ToString(cpu.best)) << ", \"kernel_self_test\": " << (ok ? "true" : "false")
+            << ", \"kernel_self_test_error\": " << err
+            << ", \"better_kernel\": " << q(kfx::ChooseBlasKernel(b.core_name, cpu, "", false).coretype) << "}\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const std::vector<std::string> a(argv + 1, argv + argc);
   try {
+    if (a.size() == 1 && a[0] == "blas") return Blas();
     if (a.size() == 2 && a[0] == "dgemm") return Dgemm(std::stoi(a[1]));
     if (a.size() == 4 && a[0] == "dare") return Dare(a[1], std::stoi(a[2]), std::stoi(a[3]));
     if (a.size() == 4 && a[0] == "lyap") return Lyap(a[1], std::stoi(a[2]), std::stoi(a[3]));
@@ -281,6 +307,6 @@ int main(int argc, char** argv) {
     std::cerr << "kfx_peers: " << e.what() << "\n";
     return 1;
   }
-  std::cerr << "usage: kfx_peers dgemm REPS | dare DIR N REPS | lyap DIR N REPS | kf DIR N REPS COV_STEPS TOL\n";
+  std::cerr << "usage: kfx_peers blas | dgemm REPS | dare DIR N REPS | lyap DIR N REPS | kf DIR N REPS COV_STEPS TOL\n";
   return 2;
 }

@@ -23,6 +23,10 @@ import time
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import blas_kernel  # noqa: E402
+# The BLAS kernel, chosen as the kfx CLI chooses it, before numpy loads the library (docs/performance.md).
+BLAS = blas_kernel.choose(sys.argv[sys.argv.index("--driver") + 1]) if "--driver" in sys.argv else None
 import numpy as np  # noqa: E402  (after the thread settings)
 import scipy  # noqa: E402
 import scipy.linalg as sla  # noqa: E402
@@ -209,6 +213,7 @@ def main():
         versions=dict(python=platform.python_version(), numpy=np.__version__, scipy=scipy.__version__,
                       octave=octave_version(), filterpy=have_filterpy()),
         timing="process CPU seconds, best of the repetitions; OPENBLAS_NUM_THREADS=1",
+        blas=BLAS,
         dare=[], lyapunov=[], kf=[])
 
     log("DGEMM rate ...")
@@ -358,6 +363,8 @@ def table(r):
              f"SciPy {v['scipy']}, Octave {v['octave']}, FilterPy {'yes' if v['filterpy'] else 'not installed'}. "
              f"Times: process CPU time, best of the repetitions; ratios = peer time / kfx time "
              f"(> 1: kfx faster). Whole run: {r['wall_seconds'] / 60:.1f} min.\n")
+    if r.get("blas"):
+        L.append(blas_kernel.line(r["blas"], dg) + "\n")
 
     def ok(c):
         return "ok" if c["ok"] else "**FAIL**"

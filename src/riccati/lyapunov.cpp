@@ -7,6 +7,7 @@
 #include <limits>
 #include <string>
 
+#include "base/lapack_fortran.hpp"
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
 #include "riccati/riccati_internal.hpp"
@@ -22,26 +23,66 @@ using Eigen::Index;
 using Eigen::MatrixXd;
 
 // The squared Smith iteration (Smith 1968):
-//   X_0 = Q, A_0 = A;  X_{j+1} = X_j + A_j X_j A_j^T,  A_{j+1} = A_j^2,  so X_j = sum_{k < 2^j} A^k Q A^kT,
-// 6 n^3 GEMM flops a step. Stops when the increment is below eps |X|_F; gives up (returns false)
-// when A_j does not contract fast enough to converge within kSmithMaxSteps steps (rho(A) above about
-// 0.998, or transient growth), and the result is accepted only if its residual is <= 1e-13
-// (4 n^3 flops more). About 60 n^3 GEMM flops at rho = 0.95, against SB03MD's ~30 n^3 flops of
-// mostly BLAS-2 Schur reduction: several times faster from n ~ 50 on.
+//   X_0 = Q, A_0 = A;  X_{j+1} = X_j + A_j X_j A_j^T,  A_{j+1} = A_j^2,  so X_j = sum_{k < 2^j} A^k Q A^kT.
+// Each increment is a symmetric congruence: while X_j is positive definite (Q > 0) by its Cholesky factor,
+// A_j X_j A_j^T = (A_j L)(A_j L)^T (DPOTRF + DTRMM + DSYRK, 2.3 n^3 flops), else by UpdateWithCongruence
+// (DTRMM + DSYR2K, 3 n^3); both exactly symmetric. Each squaring is one GEMM (2 n^3): 4.3 n^3 a step. The remainder
+// after step j is X - X_j = A_j X A_j^T, of norm <= |A_j|_F^2 |X|_F: the iteration stops as soon as |A_j|_F^2 <= eps
+// (the increment would be below rounding), and skips the last squaring when |A_j|_F^4 <= eps (then
+// |A_{j+1}|_F^2 <= eps). It gives up (returns false) when A_j does not contract fast enough to converge
+// within kSmithMaxSteps steps (rho(A) above about 0.998, or transient growth), and the result is
+// accepted only if its residual is <= 1e-13 (2.3 n^3 flops more). About 43 n^3 flops at rho = 0.95, all
+// BLAS level 3, against SB03MD's ~30 n^3 flops of mostly BLAS-2 Schur reduction (issue 24).
 constexpr int kSmithMaxSteps = 14;
+
+/// *out += alpha A X A^T for X = L L^T positive definite (DPOTRF n^3/3, DTRMM n^3, DSYRK n^3; the lower
+/// triangle is computed and mirrored). Returns false, with *out unchanged, when n < 32 (Eigen's products are
+/// faster there) or X is not numerically positive definite; the caller then uses UpdateWithCongruence.
+bool AddCongruenceOfPd(const ConstRef& A, const MatrixXd& X, double alpha, MatrixXd* out) {
+  const Index n = A.rows();
+  if (n < 32) return false;
+  const int nf = detail::FortranInt(n);
+  MatrixXd L = X;
+  int info = 0;
+  dpotrf_("L", &nf, L.data(), &nf, &info, 1);
+  if (info != 0) return false;
+  MatrixXd W = A;
+  const double one = 1.0;
+  dtrmm_("R", "L", "N", "N", &nf, &nf, &one, L.data(), &nf, W.data(), &nf);   // W = A L
+  dsyrk_("L", "N", &nf, &nf, &alpha, W.data(), &nf, &one, out->data(), &nf);  // out += alpha W W^T (lower)
+  out->triangularView<Eigen::StrictlyUpper>() = out->transpose();
+  return true;
+}
+
+/// *out += alpha A X A^T for symmetric X: by the Cholesky factor when X is positive definite and *try_pd,
+/// else by UpdateWithCongruence (and *try_pd turns false: a non-PD X_j stays so in the Smith iteration).
+void AddCongruence(const ConstRef& A, const MatrixXd& X, double alpha, bool* try_pd, MatrixXd* out) {
+  if (*try_pd && AddCongruenceOfPd(A, X, alpha, out)) return;
+  *try_pd = false;
+  detail::UpdateWithCongruence(A, X, alpha, 1.0, out);
+}
+
+/// *res = X - Q - A X A^T (2.3 or 3 n^3 flops); returns |res|_F / max(|X|_F, tiny).
+double SteinResidualInto(const ConstRef& A, const ConstRef& Q, const MatrixXd& X, MatrixXd* res) {
+  *res = X - Q;
+  bool try_pd = true;
+  AddCongruence(A, X, -1.0, &try_pd, res);
+  return res->norm() / std::max(X.norm(), kTiny);
+}
 
 bool SolveSteinSmith(const ConstRef& A, const ConstRef& Q, MatrixXd* X_out, double* relative_residual) {
   const Index n = A.rows();
   const double eps = std::numeric_limits<double>::epsilon();
-  MatrixXd Aj = A, X = 0.5 * (Q + Q.transpose()), AX(n, n), T(n, n), A2(n, n);
+  MatrixXd Aj = A, X = 0.5 * (Q + Q.transpose()), A2(n, n);
   double log_a_prev = 0.0;
+  bool try_pd = true;
   for (int j = 0; j < kSmithMaxSteps; ++j) {
-    AX.noalias() = Aj * X;
-    T.noalias() = AX * Aj.transpose();
-    X += T;
+    const double a2 = Aj.squaredNorm();
+    if (!std::isfinite(a2)) return false;
+    if (a2 <= eps) break;                    // X_j is X to rounding
+    AddCongruence(Aj, X, 1.0, &try_pd, &X);  // X += A_j X A_j^T (X is copied/factored before it is written)
     if (!X.allFinite()) return false;
-    const double x_norm = X.norm();
-    if (T.norm() <= eps * x_norm) break;
+    if (a2 * a2 <= eps) break;  // |A_{j+1}|_F^2 <= |A_j|_F^4 <= eps: no further increment
     if (j + 1 == kSmithMaxSteps) return false;
     A2.noalias() = Aj * Aj;
     Aj.swap(A2);
@@ -59,24 +100,18 @@ bool SolveSteinSmith(const ConstRef& A, const ConstRef& Q, MatrixXd* X_out, doub
     }
     log_a_prev = log_a;
   }
-  detail::SymmetrizeInPlace(X);
-  MatrixXd res = X - Q;
-  AX.noalias() = A * X;
-  res.noalias() -= AX * A.transpose();
-  if (!(res.norm() <= 1e-13 * X.norm())) return false;
-  *relative_residual = res.norm() / std::max(X.norm(), kTiny);
+  MatrixXd res(n, n);
+  const double r = SteinResidualInto(A, Q, X, &res);
+  if (!(r <= 1e-13)) return false;
+  *relative_residual = r;
   X_out->swap(X);
   return true;
 }
 
-/// |X - A X A^T - Q|_F / max(|X|_F, tiny), by two GEMMs (4 n^3 flops).
+/// |X - A X A^T - Q|_F / max(|X|_F, tiny) (3 n^3 flops).
 double SteinResidual(const ConstRef& A, const ConstRef& Q, const MatrixXd& X) {
-  const Index n = A.rows();
-  MatrixXd res = X - Q;
-  MatrixXd AX(n, n);
-  AX.noalias() = A * X;
-  res.noalias() -= AX * A.transpose();
-  return res.norm() / std::max(X.norm(), kTiny);
+  MatrixXd res(A.rows(), A.rows());
+  return SteinResidualInto(A, Q, X, &res);
 }
 
 /// The Schur method: SB03MD, with its failures and a singular equation mapped to the Summary.

@@ -79,6 +79,11 @@ TEST(CliOptions, ParserAcceptsExactlyTheChoices) {
     ASSERT_EQ(ParseArgs({"blockdiag", "m.json", "--data", "y.npy", "-o", "out", "--filter", filter}, &cl), -1);
     EXPECT_EQ(cl.bd.filter, filter);
   }
+  ASSERT_EQ(ParseArgs({"info", "--json", "--seconds", "0.05"}, &cl), -1);
+  EXPECT_EQ(cl.command, "info");
+  EXPECT_TRUE(cl.info.json);
+  EXPECT_EQ(cl.info.seconds, 0.05);
+  EXPECT_EQ(ParseArgs({"info", "--seconds", "0"}, &cl), 2);
   // Names of the library that the options do not take (a usage error: one line on stderr, exit code 2).
   EXPECT_EQ(ParseArgs({"filter", "m.json", "--data", "y.npy", "-o", "out", "--form", "conventional"}, &cl), 2);
   EXPECT_EQ(ParseArgs({"blockdiag", "m.json", "--data", "y.npy", "-o", "out", "--filter", "full"}, &cl), 2);

@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include "kfx/error.hpp"
 #include "kfx/riccati.hpp"
@@ -42,15 +43,17 @@ TEST(LyapunovScalar, MatchesClosedForm) {
   }
 }
 
-/// (I - A (x) A) vec X = vec Q, since vec(A X A^T) = (A (x) A) vec X (column-major vec).
-MatrixXd KroneckerSolve(const MatrixXd& A, const MatrixXd& Q) {
+/// (I - A (x) A) vec X = vec Q, since vec(A X A^T) = (A (x) A) vec X (column-major vec). Full pivoting, or
+/// partial pivoting (blocked, BLAS 3) for the larger sizes of well-conditioned cases (rho(A) <= 0.99).
+MatrixXd KroneckerSolve(const MatrixXd& A, const MatrixXd& Q, bool partial_pivoting = false) {
   const Eigen::Index n = A.rows();
   MatrixXd K(n * n, n * n);
   for (Eigen::Index i = 0; i < n; ++i)
     for (Eigen::Index j = 0; j < n; ++j) K.block(i * n, j * n, n, n) = A(i, j) * A;
   K = MatrixXd::Identity(n * n, n * n) - K;
   const Eigen::VectorXd vec_q = Eigen::Map<const Eigen::VectorXd>(Q.data(), n * n);
-  const Eigen::VectorXd vec_x = K.fullPivLu().solve(vec_q);
+  const Eigen::VectorXd vec_x =
+      partial_pivoting ? Eigen::VectorXd(K.partialPivLu().solve(vec_q)) : Eigen::VectorXd(K.fullPivLu().solve(vec_q));
   return Eigen::Map<const MatrixXd>(vec_x.data(), n, n);
 }
 
@@ -111,6 +114,29 @@ TEST(LyapunovRandom, SmithPathAgreesWithSb03md) {
       if (rho > 1.0) {
         EXPECT_EQ(sol.summary.method, "schur");
       }
+    }
+  }
+}
+
+// The Smith iteration's BLAS path (n >= 32: DTRMM + DSYR2K congruences, the early stop on |A_j|_F^2)
+// against the Kronecker solve, at seeded random sizes just above the switch and a rho that needs
+// every step (issue 24).
+TEST(LyapunovKronecker, SmithBlasPathAgreesAtRandomSizes) {
+  TestRng rng(2424);
+  std::mt19937 pick(24);
+  for (int trial = 0; trial < 2; ++trial) {
+    const int n = std::uniform_int_distribution<int>(32, 36)(pick);
+    for (double rho : {0.2, 0.9, 0.99}) {
+      const MatrixXd A = rng.WithSpectralRadius(n, rho);
+      const MatrixXd Q = rng.Spd(n);
+      LyapunovOptions smith;
+      smith.method = LyapunovMethod::kSmith;
+      const LyapunovSolution sol = SolveDiscreteLyapunov(A, Q, smith);
+      ASSERT_TRUE(sol.summary.ok()) << sol.summary.message << " n = " << n << ", rho = " << rho;
+      EXPECT_LE(RelativeDifference(sol.X, KroneckerSolve(A, Q, true)), 1e-11) << "n = " << n << ", rho = " << rho;
+      const double residual = (sol.X - A * sol.X * A.transpose() - Q).norm() / sol.X.norm();
+      EXPECT_LE(residual, 1e-14) << "n = " << n << ", rho = " << rho;
+      EXPECT_EQ(sol.X, sol.X.transpose());
     }
   }
 }
