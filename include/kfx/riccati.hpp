@@ -173,4 +173,72 @@ StabilityCertificate CertifyStability(const Eigen::Ref<const Eigen::MatrixXd>& F
 /// @throws kfx::Error if A is not square or not finite.
 double SpectralRadius(const Eigen::Ref<const Eigen::MatrixXd>& A);
 
+// ------------------------------------------------------------------------------------------------
+// Generalized equations (issue 22): cross term S, descriptor E; generalized Lyapunov; Stein/Sylvester.
+
+/// The filter DARE with a cross term S and a descriptor matrix E:
+///   E P E^T = A P A^T + Q - (A P C^T + S) W^{-1} (A P C^T + S)^T,   W = C P C^T + R,
+/// the steady state of the predictor E x_{k+1|k} = A x_{k|k-1} + K_p (y_k - C x_{k|k-1}) for
+/// E x_{k+1} = A x_k + w_k, y_k = C x_k + v_k with cov(w_k, v_k) = S (the noises of the same step k:
+/// SciPy's / python-control's problem class). It is the dual of
+///   scipy.linalg.solve_discrete_are(a = A^T, b = C^T, q = Q, r = R, e = E^T, s = S)
+///   control.dare(A^T, C^T, Q, R, S, E^T)   (python-control; its gain G is K_p^T).
+/// (For the kfx model's convention cov(w_k, v_k) = S with w_k entering x_k, see docs/notation.md.)
+/// Gains, named as in SolveFilterDare: filter gain K_f = P C^T W^{-1} (x_{k|k} = x_{k|k-1} + K_f e_k,
+/// P_filt = P - K_f C P), predictor gain K_p = (A P C^T + S) W^{-1} (= A K_f + S W^{-1}; with E the
+/// predictor above). closed_loop_spectral_radius is that of the pencil (A - K_p C, E).
+/// Methods (DareOptions::method):
+///  - kDoubling: the transformation to a standard filter DARE, solved by SolveFilterDare:
+///    A~ = E^{-1} A, S~ = E^{-1} S, Q~ = E^{-1} Q E^{-T} (only if E is given), then the cross term is
+///    removed: A^ = A~ - S~ R^{-1} C, Q^ = Q~ - S~ R^{-1} S~^T (PSD because [[Q, S], [S^T, R]] is);
+///    the solution P and the closed loop A^ - A^ K_f C = E^{-1} (A - K_p C) are the same.
+///  - kSchur: SLICOT SG02AD (generalized Schur / QZ on the extended pencil; E and S handled directly).
+///  - kAuto: kDoubling when E is well conditioned (rcond_1(E) >= 1e-8) and it succeeds; otherwise
+///    kSchur (fell_back says so).
+/// The result is checked like SolveFilterDare's (Lyapunov certificate on E^{-1} (A - K_p C) and P,
+/// eigenvalues when it cannot decide; acceptance at relative residual <= 1e-8), with
+/// relative_residual = |A P A^T - E P E^T + Q - K_p W K_p^T|_F / max(|E P E^T|_F, tiny).
+/// @param A n x n, @param C m x n, @param Q n x n symmetric, @param R m x m symmetric PD,
+/// @param S n x m, or 0 x 0 for none; @param E n x n nonsingular, or 0 x 0 for the identity.
+/// @throws kfx::Error on invalid input, naming the argument: shapes, NaN/Inf, symmetry, R not PD,
+///         the joint covariance [[Q, S], [S^T, R]] not PSD (named "S"; "Q" if Q alone is not PSD), E
+///         singular (rcond_1(E) < n eps), options.
+DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eigen::Ref<const Eigen::MatrixXd>& C,
+                             const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::Ref<const Eigen::MatrixXd>& R,
+                             const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::Ref<const Eigen::MatrixXd>& E,
+                             const DareOptions& options = DareOptions());
+
+/// Relative residual of a candidate P of the generalized filter DARE above (its definition).
+/// @throws kfx::Error on shapes / NaN / asymmetric P (S and E may be 0 x 0 as above).
+double FilterDareResidual(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eigen::Ref<const Eigen::MatrixXd>& C,
+                          const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::Ref<const Eigen::MatrixXd>& R,
+                          const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::Ref<const Eigen::MatrixXd>& E,
+                          const Eigen::Ref<const Eigen::MatrixXd>& P);
+
+/// Generalized discrete Lyapunov equation A X A^T - E X E^T + Q = 0 (python-control dlyap(A, Q, None,
+/// E); E = I gives SolveDiscreteLyapunov's X = A X A^T + Q). Solvable when no two eigenvalues of the
+/// pencil (A, E) have product 1; E nonsingular. SLICOT SG03AD (Bartels-Stewart on the generalized
+/// Schur form, Penzl 1998; about 75 n^3 flops). summary: kConverged, kSingular (reciprocal eigenvalue
+/// pair) or kFailed (QZ failed, overflow); method "schur"; relative_residual =
+/// |A X A^T - E X E^T + Q|_F / max(|E X E^T|_F, tiny). spectral_radius: max |lambda(A, E)|.
+/// @param A, E, Q n x n, Q symmetric. @throws kfx::Error on invalid input (E singular: rcond < n eps).
+LyapunovSolution SolveGeneralizedDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                                  const Eigen::Ref<const Eigen::MatrixXd>& E,
+                                                  const Eigen::Ref<const Eigen::MatrixXd>& Q);
+
+struct SteinSolution {
+  Eigen::MatrixXd X;  ///< n x m (the last values when the solve failed)
+  /// termination kConverged, kSingular (lambda_i(A) lambda_j(B) ~= 1) or kFailed (QR failed); method
+  /// "hessenberg-schur"; relative_residual = |A X B - X + C|_F / max(|X|_F, tiny).
+  Summary summary;
+};
+
+/// Discrete Sylvester (Stein) equation A X B - X + C = 0 (python-control dlyap(A, Q, C) is B = Q^T).
+/// Solvable when no eigenvalue pair has lambda_i(A) lambda_j(B) = 1. SLICOT SB04QD (Hessenberg-Schur
+/// method, Golub, Nash, Van Loan, IEEE TAC 24 (1979) 909-913) on X + (-A) X B = C.
+/// @param A n x n, @param B m x m, @param C n x m. @throws kfx::Error on invalid input.
+SteinSolution SolveDiscreteSylvester(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                     const Eigen::Ref<const Eigen::MatrixXd>& B,
+                                     const Eigen::Ref<const Eigen::MatrixXd>& C);
+
 }  // namespace kfx

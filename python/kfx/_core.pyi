@@ -355,6 +355,10 @@ class StationaryPerformance:
     summary: Summary
     weighted_mse: float
 
+class SteinSolution:
+    X: numpy.ndarray
+    summary: Summary
+
 class Subspace:
     """000: inner product W (gram) and Pi (n x N), orthonormal in W."""
     def __init__(self: Subspace, projection: numpy.ndarray, gram: Optional[numpy.ndarray] = None) -> None: ...
@@ -456,7 +460,7 @@ def exact_performance(truth: Model, filter: LinearFilter, steps: int = -1, weigh
 
 def exact_stationary_performance(truth: Model, filter: LinearFilter, weight: Optional[numpy.ndarray] = None) -> StationaryPerformance: ...
 
-def filter_dare_residual(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, P: numpy.ndarray) -> float: ...
+def filter_dare_residual(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, P: numpy.ndarray, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None) -> float: """Relative residual of a candidate P of the filter DARE (with S and E: |A P A^T - E P E^T + Q - K_p W K_p^T|_F / |E P E^T|_F)."""
 
 def frobenius_distance(a: KroneckerStructured, b: KroneckerStructured) -> float: ...
 
@@ -528,9 +532,13 @@ def solve_block_diagonal_steady_state(step: CoupledStep, max_iterations: int = 1
 
 def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray, method: str = 'auto') -> LyapunovSolution: """X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared Smith iteration when it converges, else 'schur'), 'schur' (SLICOT SB03MD) or 'smith'. Returns a LyapunovSolution; a singular equation is .summary.termination 'singular', never raised."""
 
+def solve_discrete_sylvester(A: numpy.ndarray, B: numpy.ndarray, C: numpy.ndarray) -> SteinSolution: """Stein / discrete Sylvester equation A X B - X + C = 0 (python-control dlyap(A, Q, C) is B = Q.T) by SLICOT SB04QD. Returns a SteinSolution; a singular equation is .summary.termination 'singular'."""
+
 def solve_filter_care(model: ContinuousModel) -> CareSolution: """CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}."""
 
-def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead."""
+def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead. With a cross term S (n, m) and/or a descriptor E (n, n): E P E^T = A P A^T + Q - (A P C^T + S) W^{-1} (A P C^T + S)^T, W = C P C^T + R, the dual of scipy's solve_discrete_are(A.T, C.T, Q, R, e=E.T, s=S) and python-control's dare(A.T, C.T, Q, R, S, E.T); predictor_gain K_p = (A P C^T + S) W^{-1} (python-control's G is K_p.T), filter_gain K_f = P C^T W^{-1}. method 'doubling': E^{-1} and the decorrelation A - S R^{-1} C, Q - S R^{-1} S^T, then the standard solver; 'schur': SLICOT SG02AD; 'auto': doubling, SG02AD if E is ill-conditioned or doubling fails. [[Q, S], [S^T, R]] must be PSD, E nonsingular."""
+
+def solve_generalized_discrete_lyapunov(A: numpy.ndarray, E: numpy.ndarray, Q: numpy.ndarray) -> LyapunovSolution: """A X A^T - E X E^T + Q = 0 (python-control dlyap(A, Q, None, E)) by SLICOT SG03AD. Returns a LyapunovSolution; a reciprocal eigenvalue pair of the pencil (A, E) is .summary.termination 'singular'."""
 
 def spectral_radius(A: numpy.ndarray) -> float: ...
 

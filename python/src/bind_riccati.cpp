@@ -1,5 +1,6 @@
 // kfx._core: the filter DARE, the discrete Lyapunov equation and the spectral radius
 // (include/kfx/riccati.hpp).
+#include <optional>
 #include <string>
 
 #include "bindings.hpp"
@@ -32,24 +33,41 @@ void BindRiccati(py::module_& m) {
   m.def(
       "solve_filter_dare",
       [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& R,
-         const std::string& method, int max_iterations, double tolerance, bool refine, bool exact_eigenvalues) {
+         const std::string& method, int max_iterations, double tolerance, bool refine, bool exact_eigenvalues,
+         const std::optional<Eigen::MatrixXd>& S, const std::optional<Eigen::MatrixXd>& E) {
         DareOptions o;
         o.method = ParseEnum<DareMethod>("method", method);
         o.max_iterations = max_iterations;
         o.tolerance = tolerance;
         o.refine = refine;
         o.exact_eigenvalues = exact_eigenvalues;
-        return SolveFilterDare(A, C, Q, R, o);
+        if (!S && !E) return SolveFilterDare(A, C, Q, R, o);
+        return SolveFilterDare(A, C, Q, R, S ? *S : Eigen::MatrixXd(0, 0), E ? *E : Eigen::MatrixXd(0, 0), o);
       },
       py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"), py::arg("method") = "auto",
       py::arg("max_iterations") = 60, py::arg("tolerance") = 1e-14, py::arg("refine") = true,
-      py::arg("exact_eigenvalues") = false,
+      py::arg("exact_eigenvalues") = false, py::arg("S") = py::none(), py::arg("E") = py::none(),
       "Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's "
       "solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, "
       "never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; "
-      "exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead.");
-  m.def("filter_dare_residual", &FilterDareResidual, py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"),
-        py::arg("P"));
+      "exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead. "
+      "With a cross term S (n, m) and/or a descriptor E (n, n): E P E^T = A P A^T + Q - (A P C^T + S) W^{-1} "
+      "(A P C^T + S)^T, W = C P C^T + R, the dual of scipy's solve_discrete_are(A.T, C.T, Q, R, e=E.T, s=S) and "
+      "python-control's dare(A.T, C.T, Q, R, S, E.T); predictor_gain K_p = (A P C^T + S) W^{-1} (python-control's "
+      "G is K_p.T), filter_gain K_f = P C^T W^{-1}. method 'doubling': E^{-1} and the decorrelation "
+      "A - S R^{-1} C, Q - S R^{-1} S^T, then the standard solver; 'schur': SLICOT SG02AD; 'auto': doubling, "
+      "SG02AD if E is ill-conditioned or doubling fails. [[Q, S], [S^T, R]] must be PSD, E nonsingular.");
+  m.def(
+      "filter_dare_residual",
+      [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& R,
+         const Eigen::MatrixXd& P, const std::optional<Eigen::MatrixXd>& S, const std::optional<Eigen::MatrixXd>& E) {
+        if (!S && !E) return FilterDareResidual(A, C, Q, R, P);
+        return FilterDareResidual(A, C, Q, R, S ? *S : Eigen::MatrixXd(0, 0), E ? *E : Eigen::MatrixXd(0, 0), P);
+      },
+      py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"), py::arg("P"), py::arg("S") = py::none(),
+      py::arg("E") = py::none(),
+      "Relative residual of a candidate P of the filter DARE (with S and E: |A P A^T - E P E^T + Q - K_p W "
+      "K_p^T|_F / |E P E^T|_F).");
   py::class_<LyapunovSolution>(m, "LyapunovSolution")
       .def_readonly("X", &LyapunovSolution::X, "the solution (n, n)")
       .def_readonly("spectral_radius", &LyapunovSolution::spectral_radius, "rho(A) from the Schur form (NaN: Smith)")
@@ -66,6 +84,27 @@ void BindRiccati(py::module_& m) {
       "X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared "
       "Smith iteration when it converges, else 'schur'), 'schur' (SLICOT SB03MD) or 'smith'. Returns a "
       "LyapunovSolution; a singular equation is .summary.termination 'singular', never raised.");
+  m.def(
+      "solve_generalized_discrete_lyapunov",
+      [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& E, const Eigen::MatrixXd& Q) {
+        py::gil_scoped_release release;
+        return SolveGeneralizedDiscreteLyapunov(A, E, Q);
+      },
+      py::arg("A"), py::arg("E"), py::arg("Q"),
+      "A X A^T - E X E^T + Q = 0 (python-control dlyap(A, Q, None, E)) by SLICOT SG03AD. Returns a "
+      "LyapunovSolution; a reciprocal eigenvalue pair of the pencil (A, E) is .summary.termination 'singular'.");
+  py::class_<SteinSolution>(m, "SteinSolution")
+      .def_readonly("X", &SteinSolution::X, "the solution (n, m)")
+      .def_readonly("summary", &SteinSolution::summary, "How the solve ended (kfx.Summary).");
+  m.def(
+      "solve_discrete_sylvester",
+      [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::MatrixXd& C) {
+        py::gil_scoped_release release;
+        return SolveDiscreteSylvester(A, B, C);
+      },
+      py::arg("A"), py::arg("B"), py::arg("C"),
+      "Stein / discrete Sylvester equation A X B - X + C = 0 (python-control dlyap(A, Q, C) is B = Q.T) by "
+      "SLICOT SB04QD. Returns a SteinSolution; a singular equation is .summary.termination 'singular'.");
   m.def(
       "spectral_radius", [](const Eigen::MatrixXd& A) { return SpectralRadius(A); }, py::arg("A"));
 }

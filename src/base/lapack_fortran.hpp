@@ -81,4 +81,41 @@ void dtrsen_(const char* job, const char* compq, const kfx_fortran_logical* sele
              double* work, const int* lwork, int* iwork, const int* liwork, int* info, std::size_t job_len,
              std::size_t compq_len);
 
+/// SLICOT SG02AD: descriptor Riccati equations by the generalized Schur method (deflating subspaces of
+/// the extended pencil, Van Dooren 1981). For dico = 'D':
+///   E^T X E = A^T X A - (L + A^T X B) (R + B^T X B)^{-1} (L + A^T X B)^T + Q   (E nonsingular).
+/// scal 'G' scales Q, R, L; acc 'R' refines the final linear solve. Arrays: s, t (lds = ldt >= 2n+m;
+/// 2n+m and 2n columns), u (2n x 2n), iwork (max(1, m, 2n)), dwork (>= max(14n+23, 16n, 2n+m, 3m)),
+/// bwork (2n). info: 1 singular extended pencil, 2 QZ failed, 3 reordering failed, 4 eigenvalues moved
+/// across the circle, 5 stable subspace dimension != n, 6 spectrum too close to the circle (solution not
+/// symmetric), 7 singular U11. iwarn 1: the solution may be inaccurate.
+void sg02ad_(const char* dico, const char* jobb, const char* fact, const char* uplo, const char* jobl,
+             const char* scal, const char* sort, const char* acc, const int* n, const int* m, const int* p,
+             const double* a, const int* lda, const double* e, const int* lde, const double* b, const int* ldb,
+             double* q, const int* ldq, double* r, const int* ldr, double* l, const int* ldl, double* rcondu,
+             double* x, const int* ldx, double* alfar, double* alfai, double* beta, double* s, const int* lds,
+             double* t, const int* ldt, double* u, const int* ldu, const double* tol, int* iwork, double* dwork,
+             const int* ldwork, kfx_fortran_logical* bwork, int* iwarn, int* info, std::size_t dico_len,
+             std::size_t jobb_len, std::size_t fact_len, std::size_t uplo_len, std::size_t jobl_len,
+             std::size_t scal_len, std::size_t sort_len, std::size_t acc_len);
+
+/// SLICOT SG03AD: generalized Lyapunov equations (Bartels-Stewart on the generalized Schur form, Penzl
+/// 1998). For dico = 'D', trans = 'T': A X A^T - E X E^T = scale * Y (x holds Y on entry, X on exit;
+/// a, e overwritten by the Schur factors, q, z by the orthogonal factors). job 'X': iwork not
+/// referenced, ldwork >= max(1, 4n, 8n+16). info: 2 QZ failed, 3 reciprocal eigenvalue pair
+/// (perturbed values used; X returned).
+void sg03ad_(const char* dico, const char* job, const char* fact, const char* trans, const char* uplo, const int* n,
+             double* a, const int* lda, double* e, const int* lde, double* q, const int* ldq, double* z,
+             const int* ldz, double* x, const int* ldx, double* scale, double* sep, double* ferr, double* alphar,
+             double* alphai, double* beta, int* iwork, double* dwork, const int* ldwork, int* info,
+             std::size_t dico_len, std::size_t job_len, std::size_t fact_len, std::size_t trans_len,
+             std::size_t uplo_len);
+
+/// SLICOT SB04QD: discrete-time Sylvester equation X + A X B = C (Hessenberg-Schur method, Golub, Nash,
+/// Van Loan 1979); A n x n and B m x m overwritten, C n x m overwritten by X, z (m x m) the Schur
+/// vectors of B; iwork (4n), ldwork >= max(1, 2n^2 + 9n, 5m, n + m). info: 1..m QR failed on B,
+/// > m a singular system (an eigenvalue pair with lambda_i(A) lambda_j(B) = -1).
+void sb04qd_(const int* n, const int* m, double* a, const int* lda, double* b, const int* ldb, double* c,
+             const int* ldc, double* z, const int* ldz, int* iwork, double* dwork, const int* ldwork, int* info);
+
 }  // extern "C"
