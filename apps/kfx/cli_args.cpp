@@ -21,6 +21,29 @@ const std::vector<std::string>& BlockDiagFilterChoices() {
   return choices;
 }
 
+// `kfx compare` (apps/kfx/compare.cpp).
+namespace {
+
+void AddCompareCommand(CLI::App& app, CompareArgs& cmp) {
+  auto* c = app.add_subcommand("compare", "Compare filters on one model: exact error, cost per step, memory");
+  c->add_option("model", cmp.model, "True model file (model or coupled model, docs/formats.md)")->required();
+  c->add_option("-m,--method", cmp.methods, "Method specification (docs/cli.md); repeat for each method")
+      ->required()
+      ->take_all();
+  auto* steps = c->add_option("--steps", cmp.steps, "Horizon T of the exact MSE (default 100)")
+                    ->check(CLI::Range(1, 2000000000));
+  c->add_flag("--stationary", cmp.stationary, "Stationary MSE as the headline (kalman = its steady state)")
+      ->excludes(steps);
+  c->add_option("--weight", cmp.weight, "n x n weight W of the MSE tr(W E[e e^T]) (.npy or .csv)");
+  c->add_option("--monte-carlo", cmp.monte_carlo, "Also estimate the MSE by this many simulated runs")
+      ->check(CLI::Range(0, 2000000000));
+  c->add_option("--seed", cmp.seed, "Seed of the timing run and the Monte Carlo runs");
+  c->add_option("--json", cmp.json, "Write the rows as JSON");
+  c->add_option("--out", cmp.out, "Directory for compare.json, the curves and the figures");
+}
+
+}  // namespace
+
 struct CommandLineParser::Impl {
   CLI::App app{"kfx: Kalman filtering for large and infinite-dimensional linear systems"};
   CommandLine args;  // the options write here
@@ -56,7 +79,10 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
                 "Monitor symmetry, definiteness and innovation consistency (NIS); reported in summary.json");
     return c;
   };
-  add_filter("filter", "Kalman filter: estimates, covariance diagonals, log-likelihood", out->flt);
+  add_filter("filter", "Kalman filter: estimates, covariance diagonals, log-likelihood", out->flt)
+      ->add_option("--method", out->flt.method,
+                   "Run this method instead of the Kalman filter: a method specification (docs/cli.md), "
+                   "e.g. steady, tau:order=4, blockdiag");
   add_filter("smooth", "Rauch-Tung-Striebel smoother", out->smo);
 
   AnalyzeArgs& ana = out->ana;
@@ -91,6 +117,8 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
   c_rep->add_option("--json", rep.json, "Write the items as JSON");
   c_rep->add_option("--out", rep.out, "Directory for figures and data");
   c_rep->add_flag("--quick", rep.quick, "Small, fast versions of the computations");
+  c_rep->add_flag("--brief", rep.brief,
+                  "A short summary per paper instead of the full table (written to DIR/<paper>/table.txt with --out)");
 
   BlockDiagArgs& bd = out->bd;
   auto* c_bd = app.add_subcommand(
@@ -105,6 +133,7 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
       ->check(CLI::Range(1L, 1000000000L));
   c_bd->add_option("--steps", bd.steps, "Number of steps (default: all rows of the data)")
       ->check(CLI::Range(0, 2000000000));
+  AddCompareCommand(app, out->cmp);
 }
 
 int CommandLineParser::Parse(int argc, const char* const* argv, CommandLine* out) {

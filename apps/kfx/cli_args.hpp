@@ -19,6 +19,16 @@ struct FilterArgs {
   bool csv = false;
   std::string form = "joseph";  ///< one of FilterFormChoices()
   bool health = false;          ///< monitor health (summary.json "health")
+  std::string method;           ///< filter only: a method specification (docs/cli.md); empty = the Kalman filter
+};
+
+struct CompareArgs {
+  std::string model, weight, json, out;
+  std::vector<std::string> methods;  ///< method specifications (docs/cli.md)
+  int steps = 100;
+  bool stationary = false;
+  int monte_carlo = 0;
+  std::uint64_t seed = 1;
 };
 
 struct AnalyzeArgs {
@@ -36,6 +46,7 @@ struct MismatchArgs {
 struct ReproduceArgs {
   std::string paper, json, out;
   bool quick = false;
+  bool brief = false;  ///< a short summary per paper (the full tables go to --out DIR/<paper>/table.txt)
 };
 
 struct BlockDiagArgs {
@@ -52,6 +63,7 @@ struct CommandLine {
   MismatchArgs mis;
   ReproduceArgs rep;
   BlockDiagArgs bd;
+  CompareArgs cmp;
 };
 
 /// The values of `--form` (filter, smooth): joseph, standard, sqrt, ud, information. Listed here, not derived

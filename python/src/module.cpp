@@ -61,5 +61,6 @@ PYBIND11_MODULE(_core, m) {
   BindMismatch(m);
   BindContinuous(m);
   BindBlockDiagonal(m);
+  BindCompare(m);
   BindReproduce(m);
 }
