@@ -39,7 +39,6 @@ void BindReducedOrder(py::module_& m);          // 001: reduced_order.hpp, sprin
 void BindMismatch(py::module_& m);              // 002: mismatch.hpp
 void BindContinuous(py::module_& m);            // 003: continuous.hpp, sampling_convergence.hpp
 void BindBlockDiagonal(py::module_& m);         // 004: block_diagonal.hpp
-void BindCompare(py::module_& m);               // method_spec.hpp, compare.hpp
 void BindReproduce(py::module_& m);             // reproduce.hpp
 
 }  // namespace kfx::python

@@ -9,6 +9,9 @@
 #include "kfx/summary.hpp"
 
 namespace kfx::python {
+
+void BindCompare(py::module_& m);  // bind_compare.cpp: method_spec.hpp, compare.hpp
+
 namespace {
 
 void BindSummary(py::module_& m) {

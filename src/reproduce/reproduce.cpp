@@ -104,12 +104,23 @@ PaperReport Reproduce(const std::string& paper, const ReproduceOptions& options)
 namespace {
 
 // `text` in lines of at most `width` characters, broken at spaces (a word longer than `width` keeps its
-// own line whole): a description is never cut inside a number.
+// own line whole), never inside "NAME = VALUE": a description is never cut inside a number or apart
+// from what the number is.
 std::vector<std::string> WrapWords(const std::string& text, size_t width) {
-  std::vector<std::string> lines;
+  std::vector<std::string> units;
   std::istringstream words(text);
-  std::string line;
   for (std::string w; words >> w;) {
+    if (w == "=" && !units.empty()) {
+      units.back() += " =";
+    } else if (!units.empty() && units.back().size() >= 2 && units.back().compare(units.back().size() - 2, 2, " =") == 0) {
+      units.back() += " " + w;
+    } else {
+      units.push_back(w);
+    }
+  }
+  std::vector<std::string> lines;
+  std::string line;
+  for (const std::string& w : units) {
     if (!line.empty() && line.size() + 1 + w.size() > width) {
       lines.push_back(line);
       line.clear();
