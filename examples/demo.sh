@@ -12,9 +12,13 @@ quick=--quick
 [[ "$full" == "--full" ]] && quick=
 section() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
-section "kfx reproduce all $quick  (published numbers beside kfx's; JSON in $out/reproduce.json)"
+section "kfx reproduce all $quick --brief  (published numbers beside kfx's; JSON in $out/reproduce.json)"
 # --out: the CLI draws the figures itself through kfx.plots (PNG + SVG), or says why it could not.
-"$kfx" reproduce all $quick --json "$out/reproduce.json" --out "$out/figures"
+# --brief: per paper the counts and key rows; the full tables go to $out/figures/<paper>/table.txt
+# (KFX_DEMO_TABLES=1 prints them here instead).
+brief=--brief
+[[ -n "${KFX_DEMO_TABLES:-}" ]] && brief=
+"$kfx" reproduce all $quick $brief --json "$out/reproduce.json" --out "$out/figures"
 
 models="$here/models"
 section "simulate -> filter -> smooth: constant-velocity target, 200 steps"
@@ -28,6 +32,22 @@ section "analyze: steady state of the 4-mass spring chain, exact vs Monte Carlo 
 section "analyze: a filter designed with 10x too little process noise, run on the true chain"
 "$kfx" analyze "$models/mass_spring_chain.json" --design "$models/mass_spring_chain_low_q.json" \
   --monte-carlo 2000 --steps 50 --seed 3
+bindir="$(cd "$(dirname "$kfx")" && pwd)"
+if [[ -x "$bindir/kfx_example_wave" ]]; then
+  section "compare: the damped wave of 000 on a fine mesh (n = 62), every method in one command"
+  wave="$out/wave"
+  "$bindir/kfx_example_wave" "$wave" 31 3
+  E="$wave/prolongation.npy" W="$wave/gram.npy"
+  "$kfx" compare "$wave/fine.json" --steps 200 --weight "$W" --monte-carlo 100 --out "$wave/compare" \
+    --method steady --method "coarse:model=$wave/coarse.json,prolongation=$E" \
+    --method "subspace:basis=$E,gram=$W,gain=converged" --method "subspace61:basis=$E,gram=$W" \
+    --method tau:order=2 --method tau:order=6 --method mu:order=2 --method mu:order=6
+fi
+
+section "compare: block-diagonal and banded filters of a coupled model (examples/coupled) vs the Kalman filter"
+"$kfx" compare "$here/coupled/model.json" --steps 200 --method kalman --method blockdiag --method banded
+"$kfx" blockdiag "$here/coupled/model.json" --data "$here/coupled/y.npy" -o "$out/coupled-bd"
+
 pydir="$(cd "$(dirname "$kfx")/.." && pwd)/python"
 python=${KFX_PYTHON:-/usr/bin/python3}
 if compgen -G "$pydir/kfx/_core*.so" > /dev/null; then

@@ -73,6 +73,23 @@ CLI::Option* AddIntegerOption(CLI::App* app, const std::string& names, T& target
 constexpr unsigned long long kMaxInt = 2000000000ULL;
 constexpr unsigned long long kMaxU64 = std::numeric_limits<std::uint64_t>::max();
 
+// `kfx compare` (apps/kfx/compare.cpp).
+void AddCompareCommand(CLI::App& app, CompareArgs& cmp) {
+  auto* c = app.add_subcommand("compare", "Compare filters on one model: exact error, cost per step, memory");
+  c->add_option("model", cmp.model, "True model file (model or coupled model, docs/formats.md)")->required();
+  c->add_option("-m,--method", cmp.methods, "Method specification (docs/cli.md); repeat for each method")
+      ->required()
+      ->take_all();
+  auto* steps = AddIntegerOption(c, "--steps", cmp.steps, 1, kMaxInt, "Horizon T of the exact MSE (default 100)");
+  c->add_flag("--stationary", cmp.stationary, "Stationary MSE as the headline (kalman = its steady state)")
+      ->excludes(steps);
+  c->add_option("--weight", cmp.weight, "n x n weight W of the MSE tr(W E[e e^T]) (.npy or .csv)");
+  AddIntegerOption(c, "--monte-carlo", cmp.monte_carlo, 0, kMaxInt, "Also estimate the MSE by this many simulated runs");
+  AddIntegerOption(c, "--seed", cmp.seed, 0, kMaxU64, "Seed of the timing run and the Monte Carlo runs");
+  c->add_option("--json", cmp.json, "Write the rows as JSON");
+  c->add_option("--out", cmp.out, "Directory for compare.json, the curves and the figures");
+}
+
 }  // namespace
 
 struct CommandLineParser::Impl {
@@ -113,7 +130,10 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
         ->excludes(full);
     return c;
   };
-  add_filter("filter", "Kalman filter: estimates, covariance diagonals, log-likelihood", out->flt);
+  add_filter("filter", "Kalman filter: estimates, covariance diagonals, log-likelihood", out->flt)
+      ->add_option("--method", out->flt.method,
+                   "Run this method instead of the Kalman filter: a method specification (docs/cli.md), "
+                   "e.g. steady, tau:order=4, blockdiag");
   add_filter("smooth", "Rauch-Tung-Striebel smoother", out->smo);
 
   AnalyzeArgs& ana = out->ana;
@@ -147,6 +167,8 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
   c_rep->add_option("--json", rep.json, "Write the items as JSON");
   c_rep->add_option("--out", rep.out, "Directory for figures and data");
   c_rep->add_flag("--quick", rep.quick, "Small, fast versions of the computations");
+  c_rep->add_flag("--brief", rep.brief,
+                  "A short summary per paper instead of the full table (written to DIR/<paper>/table.txt with --out)");
 
   BlockDiagArgs& bd = out->bd;
   auto* c_bd = app.add_subcommand(
@@ -166,6 +188,7 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
   c_info->add_flag("--json", info.json, "Print JSON (the benchmarks read it)");
   c_info->add_option("--seconds", info.seconds, "Time spent measuring the DGEMM rate (default 0.2)")
       ->check(CLI::Range(0.001, 60.0));
+  AddCompareCommand(app, out->cmp);
 }
 
 int CommandLineParser::Parse(int argc, const char* const* argv, CommandLine* out) {

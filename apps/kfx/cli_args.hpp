@@ -20,6 +20,16 @@ struct FilterArgs {
   std::string form = "joseph";  ///< one of FilterFormChoices()
   bool health = false;          ///< full health checks: also every P_{k|k}'s eigenvalues
   bool no_health = false;       ///< no health checks (the cheap ones are on by default)
+  std::string method;           ///< filter only: a method specification (docs/cli.md); empty = the Kalman filter
+};
+
+struct CompareArgs {
+  std::string model, weight, json, out;
+  std::vector<std::string> methods;  ///< method specifications (docs/cli.md)
+  int steps = 100;
+  bool stationary = false;
+  int monte_carlo = 0;
+  std::uint64_t seed = 1;
 };
 
 struct AnalyzeArgs {
@@ -37,6 +47,7 @@ struct MismatchArgs {
 struct ReproduceArgs {
   std::string paper, json, out;
   bool quick = false;
+  bool brief = false;  ///< a short summary per paper (the full tables go to --out DIR/<paper>/table.txt)
 };
 
 struct BlockDiagArgs {
@@ -59,6 +70,7 @@ struct CommandLine {
   ReproduceArgs rep;
   BlockDiagArgs bd;
   InfoArgs info;
+  CompareArgs cmp;
 };
 
 /// The values of `--form` (filter, smooth): joseph, standard, sqrt, ud, information. Listed here, not derived

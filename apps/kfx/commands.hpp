@@ -13,6 +13,13 @@ int RunSimulate(const SimulateArgs& args);
 /// and summary.json.
 int RunFilterCommand(const FilterArgs& args);
 
+/// `kfx filter MODEL --method SPEC --data Y -o DIR` (filter_method.cpp): the method's estimates x_filt and
+/// summary.json; a `kalman` spec runs RunFilterCommand with its form.
+int RunFilterMethod(const FilterArgs& args);
+
+/// `kfx compare MODEL --method SPEC ...` (compare.cpp): one row per method beside the optimal Kalman filter.
+int RunCompare(const CompareArgs& args);
+
 /// `kfx smooth MODEL --data Y -o DIR`: the Rauch-Tung-Striebel smoother's estimates and covariance
 /// diagonals, and summary.json.
 int RunSmoothCommand(const FilterArgs& args);

@@ -108,7 +108,9 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
 
 }  // namespace
 
-int RunFilterCommand(const FilterArgs& args) { return RunFilterOrSmooth(args, false); }
+int RunFilterCommand(const FilterArgs& args) {
+  return args.method.empty() ? RunFilterOrSmooth(args, false) : RunFilterMethod(args);
+}
 
 int RunSmoothCommand(const FilterArgs& args) { return RunFilterOrSmooth(args, true); }
 

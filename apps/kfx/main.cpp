@@ -26,6 +26,7 @@ int Main(int argc, char** argv) {
   if (cl.command == "analyze") return RunAnalyze(cl.ana);
   if (cl.command == "mismatch") return RunMismatch(cl.mis);
   if (cl.command == "reproduce") return RunReproduce(cl.rep);
+  if (cl.command == "compare") return RunCompare(cl.cmp);
   if (cl.command == "blockdiag") return RunBlockDiag(argc, argv, cl.bd);
   if (cl.command == "info") return RunInfo(cl.info);
   return 2;

@@ -440,6 +440,8 @@ def approximate_subspace_filter_as_linear_filter(approx: ApproximateSubspaceFilt
 
 def block_diagonal_to_dense(blocks: numpy.ndarray, block_cols: int) -> numpy.ndarray: ...
 
+def compare(model: object, methods: List[str], steps: int = 100, stationary: bool = False, weight: Optional[numpy.ndarray] = None, monte_carlo: int = 0, seed: int = 1) -> list: """The rows of `kfx compare` (docs/cli.md): model is a kfx.Model or a model-file path (a coupled model file for blockdiag/banded); methods are specifications. Returns one dict per method (pandas.DataFrame(rows) takes the list), each with the optimal Kalman filter's kalman_mse and kalman_stationary_mse; 'headline' is the stationary MSE with stationary=True, else the MSE at T. kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures."""
+
 def constant_gain_as_linear_filter(design: ModelStep, filter_gain: numpy.ndarray, z0: numpy.ndarray) -> LinearFilter: """Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain)."""
 
 def converged_subspace_filter_as_linear_filter(truth: ModelStep, subspace: Subspace, schedule: SubspaceFilterSchedule, m0: numpy.ndarray) -> LinearFilter: ...
@@ -487,6 +489,8 @@ def modeling_errors_between(design: ModelStep, truth: ModelStep) -> ModelingErro
 def monte_carlo_performance(truth: Model, filter: LinearFilter, runs: int = 1000, seed: int = 1, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = False) -> MonteCarloResult: """Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`)."""
 
 def paper_ids() -> List[str]: """The ids accepted by reproduce(), in paper order."""
+
+def parse_method(spec: str) -> tuple: """Checks a method specification (docs/cli.md) and returns (name, {key: value}); raises kfx.Error."""
 
 def patel_toda_bounds(design: ModelStep, ranges: ErrorRanges, filter_gain: Optional[numpy.ndarray] = None) -> dict: """002 Theorems 3-6 for the ranges (pi3, pi4: plant exact; pi5, pi6: noise exact; None where a theorem does not apply). pi5 uses the corrected Lemma bound, pi5_printed (41) as printed. 'summary': a kfx.Summary (when the design's DARE fails, every bound is None and the summary says why)."""
 

@@ -5,9 +5,9 @@ Two kinds of functions:
 * Figures of arrays (each returns the matplotlib Figure; ``save(fig, "name.png")`` writes PNG and SVG):
   ``estimate_band`` (estimate with a confidence band against the truth), ``covariance_heatmap``,
   ``error_vs_mesh`` (000 Fig. 1), ``ratio_vs_time`` (001 Figs. 2-3), ``error_vs_n`` (003 convergence),
-  ``block_diagonal_curves`` (004 Fig. 1).
+  ``block_diagonal_curves`` (004 Fig. 1), ``compare_pareto`` and ``compare_error_vs_time`` (kfx compare).
 * ``render(DIR)``: the papers' figures from the CSV files that ``kfx reproduce --out DIR`` (or
-  ``kfx.reproduce(paper, out_dir=DIR)``) writes, as PNG and SVG; returns the paths. This is what the
+  ``kfx.reproduce(paper, out_dir=DIR)``) writes, and those of ``kfx compare --out DIR``, as PNG and SVG; returns the paths. This is what the
   CLI runs (``python3 .../kfx/plots.py DIR``); it needs only matplotlib, not the compiled module.
 """
 import csv
@@ -147,6 +147,78 @@ def block_diagonal_curves(n, curves, ax=None, ylabel=None, title=None):
         ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
+    return fig
+
+
+def _short_method(spec):
+    """A method specification without the directories of its file parameters (legend labels)."""
+    import re
+
+    return re.sub(r"(?<=[=:])[^=,:]*/", "", spec)
+
+
+def _legend_outside(fig, ax):
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    fig.set_size_inches(9.5, 4.5)
+
+
+def _error_axis(ax, values):
+    """Log scale when the errors span a decade or more, else linear with plain numbers."""
+    v = [x for x in values if math.isfinite(x) and x > 0]
+    if v and max(v) / min(v) >= 10:
+        ax.set_yscale("log")
+
+
+def compare_pareto(rows, kalman=None, ax=None, title="true error against cost per step"):
+    """kfx compare: each method's true (exact) error against its online time per step, log-log, with
+    the Pareto front (no other method is both cheaper and more accurate) joined; rows = list of dicts
+    with "method", "online_seconds_per_step", "headline" (the error), as kfx.compare returns them;
+    kalman = the optimal filter's error (default: the rows' "kalman_mse" / "kalman_stationary_mse")."""
+    if kalman is None and rows and "kalman_mse" in rows[0]:
+        kalman = rows[0]["kalman_stationary_mse" if rows[0].get("stationary") else "kalman_mse"]
+    fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(6.5, 4.5))
+    def num(v):
+        return math.nan if v is None or v == "" else float(v)
+
+    pts = [(num(r["online_seconds_per_step"]) * 1e6, num(r["headline"]), r["method"]) for r in rows]
+    pts = [p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1]) and p[0] > 0 and p[1] > 0]
+    markers = "osD^v<>ph*"
+    for i, (x, y, label) in enumerate(pts):
+        ax.plot([x], [y], markers[i % len(markers)], ms=7, label=_short_method(label))
+    front, best = [], math.inf
+    for x, y, _ in sorted(pts):
+        if y < best:
+            front.append((x, y))
+            best = y
+    if len(front) > 1:
+        ax.plot(*zip(*front), "k-", lw=0.8, alpha=0.6, label="Pareto front")
+    ax.set_xscale("log")
+    _error_axis(ax, [p[1] for p in pts])
+    if kalman is not None and math.isfinite(kalman) and kalman > 0:
+        ax.axhline(kalman, color="k", ls=":", lw=1, label="optimal Kalman filter")
+    ax.set_xlabel("online time per step (microseconds)")
+    ax.set_ylabel("true mean-square error (exact)")
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend_outside(fig, ax)
+    return fig
+
+
+def compare_error_vs_time(k, curves, kalman=None, ax=None, title="true error against time"):
+    """kfx compare: each method's exact MSE at k = 0..T (semilog); curves = {method: values}."""
+    fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(6.5, 4.5))
+    for label, v in curves.items():
+        kk = [a for a, b in zip(k, v) if math.isfinite(b) and b > 0]
+        vv = [b for b in v if math.isfinite(b) and b > 0]
+        ax.plot(kk, vv, label=_short_method(label))
+    _error_axis(ax, [b for v in curves.values() for b in v])
+    if kalman is not None and math.isfinite(kalman) and kalman > 0:
+        ax.axhline(kalman, color="k", ls=":", lw=1, label="optimal Kalman filter at T")
+    ax.set_xlabel("k (time step)")
+    ax.set_ylabel("true mean-square error (exact)")
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend_outside(fig, ax)
     return fig
 
 
@@ -303,6 +375,29 @@ def aalto_spatial(d):
     return out
 
 
+def compare(d):
+    """kfx compare --out DIR: the Pareto figure and the error-vs-time curves from compare_rows.csv and
+    compare_curves.csv."""
+    rows_path, curves_path = os.path.join(d, "compare_rows.csv"), os.path.join(d, "compare_curves.csv")
+    if not (os.path.exists(rows_path) and os.path.exists(curves_path)):
+        return []
+    rows = read_csv(rows_path)
+    methods = [r for r in rows if r["state_dim"] != ""]
+    reference = [float(r["headline"]) for r in rows if r["state_dim"] == ""]
+    kalman = reference[0] if reference else None
+    out = _save(compare_pareto(methods, kalman), os.path.join(d, "compare_pareto.png"))
+    with open(curves_path, newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        data = [[float(x) for x in line] for line in reader]
+    k = [r[0] for r in data]
+    curves = {name: [r[i + 1] for r in data] for i, name in enumerate(header[1:])}
+    finals = [float(r["mse"]) for r in rows if r["state_dim"] == ""]
+    out += _save(compare_error_vs_time(k, curves, finals[0] if finals else None),
+                 os.path.join(d, "compare_error_vs_time.png"))
+    return out
+
+
 RENDERERS = {
     "block-diagonal": block_diagonal,
     "aalto-temporal": aalto_temporal,
@@ -323,6 +418,7 @@ def render(*dirs):
             renderer = RENDERERS.get(os.path.basename(os.path.normpath(sub)))
             if renderer:
                 written += renderer(sub)
+            written += compare(sub)
     return written
 
 

@@ -9,6 +9,9 @@
 #include "kfx/summary.hpp"
 
 namespace kfx::python {
+
+void BindCompare(py::module_& m);  // bind_compare.cpp: method_spec.hpp, compare.hpp
+
 namespace {
 
 void BindSummary(py::module_& m) {
@@ -61,5 +64,6 @@ PYBIND11_MODULE(_core, m) {
   BindMismatch(m);
   BindContinuous(m);
   BindBlockDiagonal(m);
+  BindCompare(m);
   BindReproduce(m);
 }

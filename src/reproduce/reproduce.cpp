@@ -101,14 +101,47 @@ PaperReport Reproduce(const std::string& paper, const ReproduceOptions& options)
   return report;
 }
 
+namespace {
+
+// `text` in lines of at most `width` characters, broken at spaces (a word longer than `width` keeps its
+// own line whole), never inside "NAME = VALUE": a description is never cut inside a number or apart
+// from what the number is.
+std::vector<std::string> WrapWords(const std::string& text, size_t width) {
+  std::vector<std::string> units;
+  std::istringstream words(text);
+  for (std::string w; words >> w;) {
+    if (w == "=" && !units.empty()) {
+      units.back() += " =";
+    } else if (!units.empty() && units.back().size() >= 2 && units.back().compare(units.back().size() - 2, 2, " =") == 0) {
+      units.back() += " " + w;
+    } else {
+      units.push_back(w);
+    }
+  }
+  std::vector<std::string> lines;
+  std::string line;
+  for (const std::string& w : units) {
+    if (!line.empty() && line.size() + 1 + w.size() > width) {
+      lines.push_back(line);
+      line.clear();
+    }
+    line += (line.empty() ? "" : " ") + w;
+  }
+  if (!line.empty() || lines.empty()) lines.push_back(line);
+  return lines;
+}
+
+}  // namespace
+
 std::string FormatReportTable(const PaperReport& r) {
   std::ostringstream os;
   os << "== " << r.paper << ": " << r.title << "\n";
   if (!r.items.empty()) {
+    constexpr size_t kDescriptionWidth = 60;
     size_t wk = 3, wd = 11;
     for (const auto& it : r.items) {
       wk = std::max(wk, it.key.size());
-      wd = std::max(wd, std::min<size_t>(it.description.size(), 60));
+      for (const auto& line : WrapWords(it.description, kDescriptionWidth)) wd = std::max(wd, line.size());
     }
     os << std::left << std::setw(static_cast<int>(wk)) << "key"
        << "  " << std::setw(static_cast<int>(wd)) << "description"
@@ -121,15 +154,45 @@ std::string FormatReportTable(const PaperReport& r) {
       const auto d = it.rel_diff();
       std::ostringstream rd;
       if (d) rd << std::scientific << std::setprecision(1) << *d;
+      const std::vector<std::string> lines = WrapWords(it.description, kDescriptionWidth);
       os << std::left << std::setw(static_cast<int>(wk)) << it.key << "  " << std::setw(static_cast<int>(wd))
-         << it.description.substr(0, 60) << "  " << std::right << std::setw(13) << FormatNumber(it.published) << "  "
+         << lines.front() << "  " << std::right << std::setw(13) << FormatNumber(it.published) << "  "
          << std::setw(13) << FormatNumber(it.value) << "  " << std::setw(9) << (d ? rd.str() : "-") << "  "
          << it.status() << "\n";
+      for (size_t i = 1; i < lines.size(); ++i) os << std::string(wk + 2, ' ') << lines[i] << "\n";
       if (!it.note.empty()) os << "    note: " << it.note << "\n";
     }
   }
   for (const auto& n : r.notes) os << "  " << n << "\n";
   for (const auto& f : r.figures) os << "  figure: " << f << "\n";
+  return os.str();
+}
+
+std::string FormatReportSummary(const PaperReport& r, const std::string& full_table) {
+  int reproduced = 0, differs = 0, fresh = 0;
+  std::vector<const ReproduceItem*> key;  // every "differs" row, then reproduced rows, at most 4
+  for (const auto& it : r.items) {
+    const std::string st = it.status();
+    reproduced += st == "reproduced";
+    differs += st == "differs";
+    fresh += st == "new";
+    if (st == "differs" && key.size() < 4) key.push_back(&it);
+  }
+  for (const auto& it : r.items) {
+    if (it.status() == "reproduced" && key.size() < 4) key.push_back(&it);
+  }
+  std::ostringstream os;
+  os << "== " << r.paper << ": " << r.title << "\n   " << r.items.size() << " items: " << reproduced
+     << " reproduced, " << differs << " differs, " << fresh << " new\n";
+  for (const ReproduceItem* it : key) {
+    const auto d = it->rel_diff();
+    std::ostringstream rd;
+    if (d) rd << std::scientific << std::setprecision(1) << *d;
+    os << "   " << it->status() << ": " << it->key << " = " << FormatNumber(std::optional<double>(it->value)) << " (published "
+       << FormatNumber(it->published) << ", rel. diff " << (d ? rd.str() : "-") << "): " << it->description << "\n";
+  }
+  if (!r.figures.empty()) os << "   " << r.figures.size() << " figure files, e.g. " << r.figures.front() << "\n";
+  if (!full_table.empty()) os << "   full table: " << full_table << "\n";
   return os.str();
 }
 

@@ -100,6 +100,7 @@ TEST(CliOptions, EveryIntegerOptionRejectsWhatItCannotHoldExactly) {
   const std::vector<std::string> sim = {"simulate", "m.json", "-o", "out"};
   const std::vector<std::string> ana = {"analyze", "m.json"};
   const std::vector<std::string> bd = {"blockdiag", "m.json", "--data", "y.npy", "-o", "out"};
+  const std::vector<std::string> cmp = {"compare", "m.json", "-m", "kalman"};
   const Option options[] = {
       {sim, "--steps", "0", "2000000000", "-1", "2000000001"},
       {sim, "--seed", "0", "18446744073709551615", "-1", "18446744073709551616"},
@@ -108,6 +109,9 @@ TEST(CliOptions, EveryIntegerOptionRejectsWhatItCannotHoldExactly) {
       {ana, "--seed", "0", "18446744073709551615", "-5", "99999999999999999999999"},
       {bd, "--granule", "1", "1000000000", "0", "1000000001"},
       {bd, "--steps", "0", "2000000000", "-1", "4294967296"},
+      {cmp, "--steps", "1", "2000000000", "0", "2000000001"},
+      {cmp, "--monte-carlo", "0", "2000000000", "-1", "2000000001"},
+      {cmp, "--seed", "0", "18446744073709551615", "-1", "18446744073709551616"},
   };
   CommandLine cl;
   for (const Option& o : options) {
@@ -122,6 +126,11 @@ TEST(CliOptions, EveryIntegerOptionRejectsWhatItCannotHoldExactly) {
         got = o.name == "--seed"    ? cl.ana.seed
               : o.name == "--steps" ? static_cast<unsigned long long>(cl.ana.steps)
                                     : static_cast<unsigned long long>(cl.ana.monte_carlo);
+      }
+      if (cmd == "compare") {
+        got = o.name == "--seed"    ? cl.cmp.seed
+              : o.name == "--steps" ? static_cast<unsigned long long>(cl.cmp.steps)
+                                    : static_cast<unsigned long long>(cl.cmp.monte_carlo);
       }
       if (cmd == "blockdiag") {
         got = o.name == "--granule" ? static_cast<unsigned long long>(cl.bd.granule)

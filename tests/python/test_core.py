@@ -398,3 +398,24 @@ def test_zero_dimensions_are_rejected_naming_the_matrix():
     expect_error(lambda: kfx.Model(A=z, C=np.zeros((1, 0)), Q=z, R=np.eye(1), m0=np.zeros(0), P0=z), "A", "n = 0")
     expect_error(lambda: kfx.Model(A=np.eye(2), C=np.zeros((0, 2)), Q=np.eye(2), R=z, m0=np.zeros(2), P0=np.eye(2)),
                  "C", "m = 0")
+
+
+# ---- kfx.compare: the rows of `kfx compare` (docs/cli.md) ---------------------------------------------
+
+
+def test_compare_rows_against_the_kalman_filter_and_monte_carlo(root, tmp_path):
+    chain = os.path.join(root, "examples", "models", "mass_spring_chain.json")
+    rows = kfx.compare(chain, ["kalman", "steady", "tau:order=4,step=two-da"], steps=30, monte_carlo=300, seed=3)
+    assert [r["method"] for r in rows] == ["kalman", "steady", "tau:order=4,step=two-da"]
+    ref = rows[0]["kalman_mse"]
+    assert abs(rows[0]["mse"] - ref) <= 1e-8 * ref  # the Kalman row is the Riccati recursion's tr P_{T|T}
+    assert abs(rows[1]["stationary_mse"] - rows[1]["kalman_stationary_mse"]) <= 1e-8 * rows[1]["stationary_mse"]
+    for r in rows:
+        assert r["mse"] >= ref * (1 - 1e-9)
+        assert abs(r["monte_carlo_mse"] - r["mse"]) <= 4 * r["monte_carlo_std_error"]
+        assert len(r["mse_curve"]) == 31
+    with pytest.raises(kfx.Error, match="method 'tau:order=9': order 9 is larger than the state dimension 8"):
+        kfx.compare(chain, ["tau:order=9"])
+    assert kfx.parse_method("tau:order=4,step=two-da") == ("tau", {"order": "4", "step": "two-da"})
+    written = kfx.plots.save(kfx.plots.compare_pareto(rows), str(tmp_path / "pareto.png"))
+    assert all(os.path.getsize(p) > 0 for p in written)

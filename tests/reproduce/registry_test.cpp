@@ -51,5 +51,24 @@ TEST(Reproduce, JsonLayout) {
   EXPECT_NE(FormatReportTable(r).find("reproduced"), std::string::npos);
 }
 
+// A long description is wrapped at spaces, never cut inside a number; the summary counts the statuses.
+TEST(Reproduce, TableWrapsAndSummaryCounts) {
+  PaperReport r;
+  r.paper = "bernstein";
+  const std::string desc =
+      "one-step reduced-order filter, n_e = 2: J_k / J_k^KF at k = 100 (the cost ratio of the paper's figure)";
+  r.items.push_back(ReproduceItem{"fig2.k100", desc, 1.5, 1.5, 1e-3, ""});
+  r.items.push_back(ReproduceItem{"other", "a number", 2.0, 3.0, 1e-3, ""});
+  r.items.push_back(ReproduceItem{"extra", "new number", std::nullopt, 3.0, 0.0, ""});
+  const std::string table = FormatReportTable(r);
+  EXPECT_NE(table.find("k = 100"), std::string::npos) << table;
+  EXPECT_NE(table.find("figure)"), std::string::npos) << table;
+  const std::string summary = FormatReportSummary(r, "out/table.txt");
+  EXPECT_NE(summary.find("3 items: 1 reproduced, 1 differs, 1 new"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("differs: other = 3"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("full table: out/table.txt"), std::string::npos) << summary;
+  EXPECT_LT(summary.find("differs: other"), summary.find("reproduced: fig2.k100")) << summary;
+}
+
 }  // namespace
 }  // namespace kfx

@@ -50,8 +50,11 @@ std::vector<std::string> PaperIds();
 /// Runs the reproduction of one paper. @throws kfx::Error for an unknown id (the message lists the ids).
 PaperReport Reproduce(const std::string& paper, const ReproduceOptions& options = ReproduceOptions());
 
-/// The table printed by the CLI.
+/// The table printed by the CLI (descriptions wrapped at spaces, never cut).
 std::string FormatReportTable(const PaperReport& report);
+/// A short summary of a report: counts of reproduced, differs and new items, up to four key rows
+/// (every "differs" row first), the figures, and where the full table is (`full_table`, if not empty).
+std::string FormatReportSummary(const PaperReport& report, const std::string& full_table);
 /// JSON text of one report, or of several as {"papers": [...]} when `as_all` is true.
 std::string ReportsToJson(const std::vector<PaperReport>& reports, bool as_all);
 

@@ -1,0 +1,154 @@
+// `kfx compare MODEL --method SPEC ...`: one row per method (kfx::Compare): its state dimension, offline
+// time, online time per step, memory, exact (weighted) MSE at T and stationary, ratio to the optimal
+// Kalman filter, its claimed error, Monte Carlo; JSON, and with --out the curves and figures.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "commands.hpp"
+#include "figures.hpp"
+#include "kfx/compare.hpp"
+#include "kfx/error.hpp"
+#include "kfx/io.hpp"
+#include "kfx/summary.hpp"
+#include "output.hpp"
+#include "progress.hpp"
+
+namespace kfx::cli {
+
+namespace {
+
+nlohmann::ordered_json Number(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(); }
+
+std::string Cell(double v, int precision = 4) { return std::isfinite(v) ? FormatNumber(v, precision) : "-"; }
+
+std::string Bytes(double b) {
+  const char* units[] = {"B", "kB", "MB", "GB"};
+  int u = 0;
+  while (b >= 1000 && u < 3) {
+    b /= 1000;
+    ++u;
+  }
+  std::ostringstream os;
+  os.precision(3);
+  os << b << " " << units[u];
+  return os.str();
+}
+
+nlohmann::ordered_json CompareJson(const Comparison& c, const std::string& model) {
+  nlohmann::ordered_json j;
+  j["model"] = model;
+  j["steps"] = c.steps;
+  j["stationary"] = c.stationary;
+  j["kalman_final_mse"] = Number(c.kalman_final);
+  j["kalman_stationary_mse"] = Number(c.kalman_stationary);
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+  for (const CompareRow& r : c.rows) {
+    nlohmann::ordered_json o;
+    o["method"] = r.spec;
+    o["description"] = r.description;
+    o["online"] = r.online;
+    o["state_dim"] = r.state_dim;
+    o["offline_seconds"] = r.offline_seconds;
+    o["online_seconds_per_step"] = r.online_seconds_per_step;
+    o["memory_bytes"] = r.memory_bytes;
+    o["mse"] = Number(r.final_mse);
+    o["stationary_mse"] = Number(r.stationary_mse);
+    if (!r.stationary_note.empty()) o["stationary_note"] = r.stationary_note;
+    o["ratio_to_kalman"] = Number(r.ratio);
+    o["claimed_mse"] = Number(r.claimed_final);
+    o["claimed_stationary_mse"] = Number(r.claimed_stationary);
+    o["monte_carlo_runs"] = r.mc_runs;
+    o["monte_carlo_mse"] = Number(r.mc_mse);
+    o["monte_carlo_std_error"] = Number(r.mc_std_error);
+    rows.push_back(o);
+  }
+  j["rows"] = rows;
+  return j;
+}
+
+void PrintTable(const Comparison& c) {
+  const bool mc = !c.rows.empty() && c.rows.front().mc_runs > 0;
+  std::printf("optimal Kalman filter on the true model: MSE at T = %d: %s, stationary (DARE): %s\n", c.steps,
+              Cell(c.kalman_final, 6).c_str(), Cell(c.kalman_stationary, 6).c_str());
+  std::printf("%-34s %5s %9s %11s %9s %11s %11s %7s %11s %11s", "method", "n_z", "offline", "online/step", "memory",
+              "MSE(T)", "stationary", "ratio", "claimed", "claimed st.");
+  if (mc) std::printf(" %22s", "Monte Carlo MSE(T)");
+  std::printf("\n");
+  for (const CompareRow& r : c.rows) {
+    const std::string spec = r.spec.size() > 34 ? r.spec.substr(0, 31) + "..." : r.spec;
+    std::printf("%-34s %5ld %8ss %10sus %9s %11s %11s %7s %11s %11s", spec.c_str(), static_cast<long>(r.state_dim),
+                Cell(r.offline_seconds, 2).c_str(), Cell(1e6 * r.online_seconds_per_step, 3).c_str(),
+                Bytes(r.memory_bytes).c_str(), Cell(r.final_mse).c_str(), Cell(r.stationary_mse).c_str(),
+                Cell(r.ratio, 4).c_str(), Cell(r.claimed_final).c_str(), Cell(r.claimed_stationary).c_str());
+    if (mc) std::printf(" %11s +- %-8s", Cell(r.mc_mse).c_str(), Cell(r.mc_std_error, 2).c_str());
+    std::printf("\n");
+  }
+  std::printf("ratio: %s over the optimal Kalman filter's; claimed: the filter's own covariance; '-': none\n",
+              c.stationary ? "stationary MSE" : "MSE(T)");
+}
+
+// compare_rows.csv (one row per method) and compare_curves.csv (k, then the MSE of each method): what
+// kfx.plots draws the Pareto figure and the error-vs-time curves from.
+void WriteCurves(const Comparison& c, const std::string& dir) {
+  std::ofstream rows(Join(dir, "compare_rows.csv"));
+  rows.precision(12);
+  rows << "method,state_dim,online_seconds_per_step,memory_bytes,mse,stationary_mse,ratio,headline\n";
+  for (const CompareRow& r : c.rows) {
+    const double headline = c.stationary ? r.stationary_mse : r.final_mse;
+    rows << '"' << r.spec << "\"," << r.state_dim << ',' << r.online_seconds_per_step << ',' << r.memory_bytes << ','
+         << r.final_mse << ',' << r.stationary_mse << ',' << r.ratio << ',' << headline << '\n';
+  }
+  rows << "\"Kalman filter (reference)\",,,,"  << c.kalman_final << ',' << c.kalman_stationary << ",1,"
+       << (c.stationary ? c.kalman_stationary : c.kalman_final) << '\n';
+  std::ofstream curves(Join(dir, "compare_curves.csv"));
+  curves.precision(12);
+  curves << "k";
+  for (const CompareRow& r : c.rows) curves << ",\"" << r.spec << '"';
+  curves << '\n';
+  for (int k = 0; k <= c.steps; ++k) {
+    curves << k;
+    for (const CompareRow& r : c.rows) curves << ',' << r.mse(k);
+    curves << '\n';
+  }
+}
+
+}  // namespace
+
+int RunCompare(const CompareArgs& a) {
+  std::vector<MethodSpec> specs;
+  for (const std::string& text : a.methods) specs.push_back(ParseMethodSpec(text));  // all checked before work
+  const ComparisonModel truth = LoadComparisonModel(a.model);
+  CompareOptions o;
+  o.steps = a.steps;
+  o.stationary = a.stationary;
+  o.monte_carlo = a.monte_carlo;
+  o.seed = a.seed;
+  if (!a.weight.empty()) {
+    try {
+      o.weight = ReadNpyMatrix(a.weight);
+    } catch (const Error& e) {
+      throw Error(std::string("--weight: ") + e.what());
+    }
+  }
+  ProgressLine progress("compare");
+  o.progress = progress.callback();
+  const Comparison c = Compare(truth, specs, o);
+  progress.Finish();
+  PrintTable(c);
+  const std::string json = CompareJson(c, a.model).dump(2);
+  if (!a.json.empty()) WriteText(a.json, json);
+  if (!a.out.empty()) {
+    MakeDir(a.out);
+    WriteText(Join(a.out, "compare.json"), json);
+    WriteCurves(c, a.out);
+    std::cout << "wrote compare.json, compare_rows.csv, compare_curves.csv to " << a.out << "\n";
+    DrawFigures(a.out);
+  }
+  return 0;
+}
+
+}  // namespace kfx::cli
