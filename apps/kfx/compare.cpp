@@ -93,8 +93,8 @@ void PrintTable(const Comparison& c) {
 
 // compare_rows.csv (one row per method) and compare_curves.csv (k, then the MSE of each method): what
 // kfx.plots draws the Pareto figure and the error-vs-time curves from.
-void WriteCurves(const Comparison& c, const std::string& dir) {
-  std::ofstream rows(Join(dir, "compare_rows.csv"));
+void WriteCurves(const Comparison& c, const OutputDirectory& dir) {
+  std::ostringstream rows;
   rows.precision(12);
   rows << "method,state_dim,online_seconds_per_step,memory_bytes,mse,stationary_mse,ratio,headline\n";
   for (const CompareRow& r : c.rows) {
@@ -104,7 +104,8 @@ void WriteCurves(const Comparison& c, const std::string& dir) {
   }
   rows << "\"Kalman filter (reference)\",,,,"  << c.kalman_final << ',' << c.kalman_stationary << ",1,"
        << (c.stationary ? c.kalman_stationary : c.kalman_final) << '\n';
-  std::ofstream curves(Join(dir, "compare_curves.csv"));
+  WriteText(dir.Path("compare_rows.csv"), rows.str());
+  std::ostringstream curves;
   curves.precision(12);
   curves << "k";
   for (const CompareRow& r : c.rows) curves << ",\"" << r.spec << '"';
@@ -114,6 +115,7 @@ void WriteCurves(const Comparison& c, const std::string& dir) {
     for (const CompareRow& r : c.rows) curves << ',' << r.mse(k);
     curves << '\n';
   }
+  WriteText(dir.Path("compare_curves.csv"), curves.str());
 }
 
 }  // namespace
@@ -142,11 +144,12 @@ int RunCompare(const CompareArgs& a) {
   const std::string json = CompareJson(c, a.model).dump(2);
   if (!a.json.empty()) WriteText(a.json, json);
   if (!a.out.empty()) {
-    MakeDir(a.out);
-    WriteText(Join(a.out, "compare.json"), json);
-    WriteCurves(c, a.out);
-    std::cout << "wrote compare.json, compare_rows.csv, compare_curves.csv to " << a.out << "\n";
+    // compare.json is the completion marker, written last (docs/robustness.md, class 5).
+    OutputDirectory out(a.out, "compare.json");
+    WriteCurves(c, out);
     DrawFigures(a.out);
+    out.Commit(json);
+    std::cout << "wrote compare.json, compare_rows.csv, compare_curves.csv to " << a.out << "\n";
   }
   return 0;
 }

@@ -32,9 +32,11 @@ int RunFilterMethod(const FilterArgs& a) {
   mo.steps = static_cast<int>(y.rows());
   const ResolvedMethod m = ResolveMethod(spec, truth, mo);
   const TimeSeries x = m.run(y);
-  MakeDir(a.out);
+  // Estimates that overflowed are an error, not files (docs/robustness.md, class 4).
+  if (!x.allFinite()) throw NumericalError("x_filt: not finite (method '" + a.method + "' diverged); nothing written");
+  OutputDirectory out(a.out, "summary.json");  // the completion marker goes last (class 5)
   const std::string file = std::string("x_filt") + (a.csv ? ".csv" : ".npy");
-  WriteTimeSeries(Join(a.out, file), x);
+  WriteTimeSeries(out.Path(file), x);
   nlohmann::ordered_json summary;
   summary["steps"] = y.rows();
   summary["state_dim"] = truth.model.state_dim();
@@ -44,7 +46,7 @@ int RunFilterMethod(const FilterArgs& a) {
   summary["online"] = m.online;
   summary["filter_state_dim"] = m.filter->state_dim();
   summary["files"] = {file};
-  WriteText(Join(a.out, "summary.json"), summary.dump(2));
+  out.Commit(summary.dump(2));
   std::cout << "filtered " << y.rows() << " steps with " << spec.text << " (" << m.description << ", n_z = "
             << m.filter->state_dim() << ")\n  wrote " << file << " summary.json to " << a.out << "\n";
   return 0;
