@@ -84,7 +84,8 @@ void AddCompareCommand(CLI::App& app, CompareArgs& cmp) {
   c->add_flag("--stationary", cmp.stationary, "Stationary MSE as the headline (kalman = its steady state)")
       ->excludes(steps);
   c->add_option("--weight", cmp.weight, "n x n weight W of the MSE tr(W E[e e^T]) (.npy or .csv)");
-  AddIntegerOption(c, "--monte-carlo", cmp.monte_carlo, 0, kMaxInt, "Also estimate the MSE by this many simulated runs");
+  AddIntegerOption(c, "--monte-carlo", cmp.monte_carlo, 0, kMaxInt,
+                   "Also estimate the MSE by this many simulated runs");
   AddIntegerOption(c, "--seed", cmp.seed, 0, kMaxU64, "Seed of the timing run and the Monte Carlo runs");
   c->add_option("--json", cmp.json, "Write the rows as JSON");
   c->add_option("--out", cmp.out, "Directory for compare.json, the curves and the figures");

@@ -21,7 +21,9 @@ namespace kfx::cli {
 
 namespace {
 
-nlohmann::ordered_json Number(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(); }
+nlohmann::ordered_json Number(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json();
+}
 
 std::string Cell(double v, int precision = 4) { return std::isfinite(v) ? FormatNumber(v, precision) : "-"; }
 
@@ -102,7 +104,7 @@ void WriteCurves(const Comparison& c, const OutputDirectory& dir) {
     rows << '"' << r.spec << "\"," << r.state_dim << ',' << r.online_seconds_per_step << ',' << r.memory_bytes << ','
          << r.final_mse << ',' << r.stationary_mse << ',' << r.ratio << ',' << headline << '\n';
   }
-  rows << "\"Kalman filter (reference)\",,,,"  << c.kalman_final << ',' << c.kalman_stationary << ",1,"
+  rows << "\"Kalman filter (reference)\",,,," << c.kalman_final << ',' << c.kalman_stationary << ",1,"
        << (c.stationary ? c.kalman_stationary : c.kalman_final) << '\n';
   WriteText(dir.Path("compare_rows.csv"), rows.str());
   std::ostringstream curves;

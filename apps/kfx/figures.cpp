@@ -14,10 +14,10 @@ namespace kfx::cli {
 
 namespace {
 
-// The figures of `reproduce --out DIR` and `compare --out DIR` are drawn by kfx.plots (python/kfx/plots.py, matplotlib) when a
-// Python with matplotlib is there; otherwise the CLI says so and leaves the CSV data. Interpreter:
-// $KFX_PYTHON, else the one CMake chose (Debian's /usr/bin/python3); script: $KFX_PLOTS, else the
-// source tree's python/kfx/plots.py, else the installed share/kfx/plots.py.
+// The figures of `reproduce --out DIR` and `compare --out DIR` are drawn by kfx.plots (python/kfx/plots.py, matplotlib)
+// when a Python with matplotlib is there; otherwise the CLI says so and leaves the CSV data. Interpreter: $KFX_PYTHON,
+// else the one CMake chose (Debian's /usr/bin/python3); script: $KFX_PLOTS, else the source tree's python/kfx/plots.py,
+// else the installed share/kfx/plots.py.
 std::string ShellQuote(const std::string& s) {
   std::string q = "'";
   for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);

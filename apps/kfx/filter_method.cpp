@@ -26,7 +26,8 @@ int RunFilterMethod(const FilterArgs& a) {
   const TimeSeries y = ReadTimeSeries(a.data);
   if (y.rows() < 1) throw Error("--data: expected at least one row of measurements, got none");
   if (!y.allFinite()) {
-    throw Error("--data: method '" + a.method + "' needs every measurement (missing entries are for the Kalman filter)");
+    throw Error("--data: method '" + a.method +
+                "' needs every measurement (missing entries are for the Kalman filter)");
   }
   MethodOptions mo;
   mo.steps = static_cast<int>(y.rows());
@@ -47,8 +48,8 @@ int RunFilterMethod(const FilterArgs& a) {
   summary["filter_state_dim"] = m.filter->state_dim();
   summary["files"] = {file};
   out.Commit(summary.dump(2));
-  std::cout << "filtered " << y.rows() << " steps with " << spec.text << " (" << m.description << ", n_z = "
-            << m.filter->state_dim() << ")\n  wrote " << file << " summary.json to " << a.out << "\n";
+  std::cout << "filtered " << y.rows() << " steps with " << spec.text << " (" << m.description
+            << ", n_z = " << m.filter->state_dim() << ")\n  wrote " << file << " summary.json to " << a.out << "\n";
   return 0;
 }
 

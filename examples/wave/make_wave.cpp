@@ -41,8 +41,8 @@ int main(int argc, char** argv) {
     kfx::WriteNpyMatrix(dir + "/prolongation.npy", p.prolongation);
     kfx::WriteNpyMatrix(dir + "/gram.npy", p.fine.gram);
     kfx::WriteNpyMatrix(dir + "/gram_position.npy", p.fine.gram_position);
-    std::printf("damped wave: fine mesh %d nodes (n = %d), coarse mesh %d nodes (n = %d); files in %s\n",
-                o.fine_nodes, 2 * o.fine_nodes, o.coarse_nodes, 2 * o.coarse_nodes, dir.c_str());
+    std::printf("damped wave: fine mesh %d nodes (n = %d), coarse mesh %d nodes (n = %d); files in %s\n", o.fine_nodes,
+                2 * o.fine_nodes, o.coarse_nodes, 2 * o.coarse_nodes, dir.c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "kfx_example_wave: error: %s\n", e.what());
     return 2;

@@ -45,12 +45,12 @@ struct MethodOptions {
 /// claims about its own error.
 struct ResolvedMethod {
   MethodSpec spec;
-  std::string description;                    ///< e.g. "Kalman filter (joseph form)"
+  std::string description;                     ///< e.g. "Kalman filter (joseph form)"
   std::shared_ptr<const LinearFilter> filter;  ///< what the exact-performance engine evaluates
   /// The method's own online implementation: measurements (T x m) -> estimates of x_k, (T+1) x n.
   std::function<TimeSeries(const TimeSeries& y)> run;
-  std::string online;             ///< the function `run` calls ("RunFilter", "RunCoupledFilter", ...)
-  double offline_seconds = 0.0;   ///< the offline part (schedules, DAREs, bases)
+  std::string online;            ///< the function `run` calls ("RunFilter", "RunCoupledFilter", ...)
+  double offline_seconds = 0.0;  ///< the offline part (schedules, DAREs, bases)
   /// Bytes the online part holds: its state and the matrices it applies (all steps of a stored schedule).
   double memory_bytes = 0.0;
   /// The filter's own error covariance of x at step T and in the stationary limit (n x n, empty when
@@ -66,12 +66,12 @@ ResolvedMethod ResolveMethod(const MethodSpec& spec, const ComparisonModel& trut
                              const MethodOptions& options = MethodOptions());
 
 struct CompareOptions {
-  int steps = 100;                ///< horizon T of the finite-horizon MSE and of the timing run (>= 1)
-  bool stationary = false;        ///< also (and as the headline) the stationary MSE; see MethodOptions
-  Eigen::MatrixXd weight{};       ///< n x n symmetric PSD W of the weighted MSE tr(W E[e e^T]); empty = I
-  int monte_carlo = 0;            ///< Monte Carlo runs (0: none; else >= 2)
-  std::uint64_t seed = 1;         ///< of the timing run and the Monte Carlo runs
-  ProgressCallback progress{};    ///< (methods done, methods)
+  int steps = 100;              ///< horizon T of the finite-horizon MSE and of the timing run (>= 1)
+  bool stationary = false;      ///< also (and as the headline) the stationary MSE; see MethodOptions
+  Eigen::MatrixXd weight{};     ///< n x n symmetric PSD W of the weighted MSE tr(W E[e e^T]); empty = I
+  int monte_carlo = 0;          ///< Monte Carlo runs (0: none; else >= 2)
+  std::uint64_t seed = 1;       ///< of the timing run and the Monte Carlo runs
+  ProgressCallback progress{};  ///< (methods done, methods)
   bool IsValid(std::string* error) const;
 };
 
@@ -79,10 +79,10 @@ struct CompareRow {
   std::string spec, description, online;
   Eigen::Index state_dim = 0;  ///< n_z, the filter's own state
   double offline_seconds = 0.0, online_seconds_per_step = 0.0, memory_bytes = 0.0;
-  Eigen::VectorXd mse;  ///< weighted MSE k = 0..T from the engine (the error-vs-time curve)
+  Eigen::VectorXd mse;     ///< weighted MSE k = 0..T from the engine (the error-vs-time curve)
   double final_mse = 0.0;  ///< mse(T)
   double stationary_mse = std::numeric_limits<double>::quiet_NaN();  ///< NaN: none (time-varying, unstable)
-  std::string stationary_note;  ///< why there is no stationary value
+  std::string stationary_note;                                       ///< why there is no stationary value
   /// The headline (stationary_mse with --stationary, else final_mse) over the Kalman filter's.
   double ratio = std::numeric_limits<double>::quiet_NaN();
   double claimed_final = std::numeric_limits<double>::quiet_NaN();       ///< tr(W claimed_cov)

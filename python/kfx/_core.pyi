@@ -137,8 +137,24 @@ class ErrorRanges:
 class Estimate:
     """A Gaussian estimate (x, P)."""
     P: numpy.ndarray
-    def __init__(self: Estimate, x: numpy.ndarray, P: numpy.ndarray) -> None: ...
+    def __init__(self: Estimate, x: numpy.ndarray, P: numpy.ndarray) -> None: """Validated: x finite, P symmetric positive semidefinite (raises kfx.Error)."""
     x: numpy.ndarray
+
+class FilterHealth:
+    """Health of a filter run (docs/robustness.md, 'Health checks')."""
+    cholesky_failures: int
+    first_cholesky_failure: int
+    healthy: bool
+    max_asymmetry: float
+    min_eigenvalue: float
+    min_eigenvalue_step: int
+    monitored: bool
+    nis_consistent: bool
+    nis_dof: int
+    nis_lower: float
+    nis_mean: float
+    nis_upper: float
+    steps: int
 
 class FilterRun:
     """A whole-sequence filter run (kfx.run_filter)."""
@@ -146,6 +162,8 @@ class FilterRun:
     P_filt_diag: numpy.ndarray
     P_pred: numpy.ndarray
     P_pred_diag: numpy.ndarray
+    health: FilterHealth
+    health_warning: str
     innovations: numpy.ndarray
     log_likelihood: float
     log_likelihood_terms: numpy.ndarray
@@ -205,10 +223,7 @@ class KalmanFilter:
     def predict(self: KalmanFilter) -> None: """x = F x, P = F P F^T + Q."""
     def rts_smoother(self: KalmanFilter, Xs: numpy.ndarray, Ps: numpy.ndarray) -> tuple: """Rauch-Tung-Striebel smoother over filtered (Xs (T, n), Ps (T, n, n)) with this F, Q: returns (x, P, K, Pp) as FilterPy (K: smoother gains, Pp: predicted covariances F P F^T + Q)."""
     def to_model(self: KalmanFilter) -> Model: """The time-invariant kfx.Model (F, H, Q, R, x, P)."""
-    @typing.overload
-    def update(self: KalmanFilter, z: numpy.ndarray) -> None: ...
-    @typing.overload
-    def update(self: KalmanFilter, z: float) -> None: ...
+    def update(self: KalmanFilter, z: object) -> None: """Measurement update with z (m,) (or a number when dim_z = 1); NaN entries are missing (all NaN: no update)."""
     update_form: str
     x: numpy.ndarray
     x_post: numpy.ndarray
@@ -512,7 +527,7 @@ def rts_smooth(model: Model, run: FilterRun) -> SmootherRun: """Rauch-Tung-Strie
 
 def run_coupled_filter(system: CoupledSystem, kind: str, y: numpy.ndarray) -> CoupledRun: """Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), 'block-diagonal-naive', 'banded', 'full'."""
 
-def run_filter(model: Model, y: numpy.ndarray, store_covariances: bool = True, update_form: str = 'joseph') -> FilterRun: """Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting from the prior (m0, P0) at k = 0."""
+def run_filter(model: Model, y: numpy.ndarray, store_covariances: bool = True, update_form: str = 'joseph', form: str = 'conventional', monitor_health: bool = True) -> FilterRun: """Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting from the prior (m0, P0) at k = 0. form: 'conventional', 'sqrt', 'ud' or 'information'. With monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use when the covariances went wrong."""
 
 def run_kalman_bucy(model: ContinuousModel, T: float, dy: numpy.ndarray, substeps: int = 2) -> tuple: """Returns (z_hat(T), P_c(T))."""
 

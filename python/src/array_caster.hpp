@@ -60,8 +60,19 @@ struct KfxEigenCaster {
     return true;
   }
 
-  // Output: pybind11's own conversion (a numpy array owning a copy, or moved, data).
-  static handle cast(const Type& src, return_value_policy, handle) { return eigen_array_cast<props>(src); }
+  // Output as pybind11's own caster does it: a member read through a property (reference_internal) is
+  // a read-only view kept alive by its owner, so `step.A[0, 0] = 5` raises instead of editing a copy
+  // that is then lost; other results are numpy arrays owning a copy (or the moved data).
+  static handle cast(const Type& src, return_value_policy policy, handle parent) {
+    switch (policy) {
+      case return_value_policy::reference_internal:
+        return eigen_ref_array<props>(src, parent);
+      case return_value_policy::reference:
+        return eigen_ref_array<props>(src);
+      default:
+        return eigen_array_cast<props>(src);
+    }
+  }
   static handle cast(Type&& src, return_value_policy, handle) {
     return eigen_encapsulate<props>(new Type(std::move(src)));
   }

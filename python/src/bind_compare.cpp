@@ -56,8 +56,8 @@ void BindCompare(py::module_& m) {
       "Checks a method specification (docs/cli.md) and returns (name, {key: value}); raises kfx.Error.");
   m.def(
       "compare",
-      [](const py::object& model, const std::vector<std::string>& methods, int steps,
-         bool stationary, std::optional<Eigen::MatrixXd> weight, int monte_carlo, std::uint64_t seed) {
+      [](const py::object& model, const std::vector<std::string>& methods, int steps, bool stationary,
+         std::optional<Eigen::MatrixXd> weight, int monte_carlo, std::uint64_t seed) {
         std::vector<MethodSpec> specs;
         for (const std::string& t : methods) specs.push_back(ParseMethodSpec(t));
         const ComparisonModel truth = py::isinstance<py::str>(model)

@@ -89,15 +89,15 @@ void dtrsen_(const char* job, const char* compq, const kfx_fortran_logical* sele
 /// bwork (2n). info: 1 singular extended pencil, 2 QZ failed, 3 reordering failed, 4 eigenvalues moved
 /// across the circle, 5 stable subspace dimension != n, 6 spectrum too close to the circle (solution not
 /// symmetric), 7 singular U11. iwarn 1: the solution may be inaccurate.
-void sg02ad_(const char* dico, const char* jobb, const char* fact, const char* uplo, const char* jobl,
-             const char* scal, const char* sort, const char* acc, const int* n, const int* m, const int* p,
-             const double* a, const int* lda, const double* e, const int* lde, const double* b, const int* ldb,
-             double* q, const int* ldq, double* r, const int* ldr, double* l, const int* ldl, double* rcondu,
-             double* x, const int* ldx, double* alfar, double* alfai, double* beta, double* s, const int* lds,
-             double* t, const int* ldt, double* u, const int* ldu, const double* tol, int* iwork, double* dwork,
-             const int* ldwork, kfx_fortran_logical* bwork, int* iwarn, int* info, std::size_t dico_len,
-             std::size_t jobb_len, std::size_t fact_len, std::size_t uplo_len, std::size_t jobl_len,
-             std::size_t scal_len, std::size_t sort_len, std::size_t acc_len);
+void sg02ad_(const char* dico, const char* jobb, const char* fact, const char* uplo, const char* jobl, const char* scal,
+             const char* sort, const char* acc, const int* n, const int* m, const int* p, const double* a,
+             const int* lda, const double* e, const int* lde, const double* b, const int* ldb, double* q,
+             const int* ldq, double* r, const int* ldr, double* l, const int* ldl, double* rcondu, double* x,
+             const int* ldx, double* alfar, double* alfai, double* beta, double* s, const int* lds, double* t,
+             const int* ldt, double* u, const int* ldu, const double* tol, int* iwork, double* dwork, const int* ldwork,
+             kfx_fortran_logical* bwork, int* iwarn, int* info, std::size_t dico_len, std::size_t jobb_len,
+             std::size_t fact_len, std::size_t uplo_len, std::size_t jobl_len, std::size_t scal_len,
+             std::size_t sort_len, std::size_t acc_len);
 
 /// SLICOT SG03AD: generalized Lyapunov equations (Bartels-Stewart on the generalized Schur form, Penzl
 /// 1998). For dico = 'D', trans = 'T': A X A^T - E X E^T = scale * Y (x holds Y on entry, X on exit;
@@ -105,11 +105,10 @@ void sg02ad_(const char* dico, const char* jobb, const char* fact, const char* u
 /// referenced, ldwork >= max(1, 4n, 8n+16). info: 2 QZ failed, 3 reciprocal eigenvalue pair
 /// (perturbed values used; X returned).
 void sg03ad_(const char* dico, const char* job, const char* fact, const char* trans, const char* uplo, const int* n,
-             double* a, const int* lda, double* e, const int* lde, double* q, const int* ldq, double* z,
-             const int* ldz, double* x, const int* ldx, double* scale, double* sep, double* ferr, double* alphar,
-             double* alphai, double* beta, int* iwork, double* dwork, const int* ldwork, int* info,
-             std::size_t dico_len, std::size_t job_len, std::size_t fact_len, std::size_t trans_len,
-             std::size_t uplo_len);
+             double* a, const int* lda, double* e, const int* lde, double* q, const int* ldq, double* z, const int* ldz,
+             double* x, const int* ldx, double* scale, double* sep, double* ferr, double* alphar, double* alphai,
+             double* beta, int* iwork, double* dwork, const int* ldwork, int* info, std::size_t dico_len,
+             std::size_t job_len, std::size_t fact_len, std::size_t trans_len, std::size_t uplo_len);
 
 /// SLICOT SB04QD: discrete-time Sylvester equation X + A X B = C (Hessenberg-Schur method, Golub, Nash,
 /// Van Loan 1979); A n x n and B m x m overwritten, C n x m overwritten by X, z (m x m) the Schur

@@ -15,7 +15,7 @@ namespace kfx {
 namespace {
 
 struct MethodTable {
-  std::vector<std::string> params;    // the first one positional when `positional`
+  std::vector<std::string> params;  // the first one positional when `positional`
   bool positional = false;
   std::vector<std::string> required;  // parameters that must be given
 };

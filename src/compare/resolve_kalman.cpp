@@ -22,12 +22,10 @@ DareSolution SteadyState(const MethodSpec& spec, const ModelStep& s, const std::
 }
 
 // RunFilter's memory: x, P and the model step (A, Q, C, R).
-double KalmanBytes(Eigen::Index n, Eigen::Index m) {
-  return 8.0 * static_cast<double>(n + 3 * n * n + m * n + m * m);
-}
+double KalmanBytes(Eigen::Index n, Eigen::Index m) { return 8.0 * static_cast<double>(n + 3 * n * n + m * n + m * m); }
 
 ResolvedMethod KalmanWithSchedule(const MethodSpec& spec, const Model& model, const KalmanFilterOptions& form, int T,
-                              std::string description) {
+                                  std::string description) {
   ResolvedMethod r;
   KalmanScheduleOptions so;
   so.steps = T;
@@ -88,9 +86,9 @@ ResolvedMethod Coarse(const MethodSpec& spec, const Model& truth) {
     throw Error(Where(spec) + "prolongation: expected a " + ShapeString(truth.state_dim(), coarse.state_dim()) +
                 " matrix (true state x reduced state), got " + ShapeString(E));
   }
-  ResolvedMethod r = SteadyGain(spec, coarse, "reduced model's", "steady-state Kalman filter of the reduced model (" +
-                                                                     std::to_string(coarse.state_dim()) +
-                                                                     " states), lifted by the prolongation");
+  ResolvedMethod r = SteadyGain(spec, coarse, "reduced model's",
+                                "steady-state Kalman filter of the reduced model (" +
+                                    std::to_string(coarse.state_dim()) + " states), lifted by the prolongation");
   LinearFilterStep step = *r.filter->step(1);
   step.O = E;
   r.filter = std::make_shared<LinearFilter>(std::move(step), coarse.m0(), E);
@@ -101,7 +99,8 @@ ResolvedMethod Coarse(const MethodSpec& spec, const Model& truth) {
 
 ResolvedMethod Coupled(const MethodSpec& spec, const ComparisonModel& truth, int T) {
   if (!truth.coupled) {
-    throw Error(Where(spec) + spec.name + " needs a coupled model (a \"kfx-coupled-model\" file, docs/formats.md), "
+    throw Error(Where(spec) + spec.name +
+                " needs a coupled model (a \"kfx-coupled-model\" file, docs/formats.md), "
                 "got a plain model");
   }
   const CoupledSystem system = *truth.coupled;
@@ -123,8 +122,8 @@ ResolvedMethod Coupled(const MethodSpec& spec, const ComparisonModel& truth, int
   const double d = static_cast<double>(system.d()), rr = static_cast<double>(system.r());
   // Packed covariance and gain blocks, the coupling terms, the state.
   r.memory_bytes = 8.0 * (n * c * (2 * c + d + 2 * rr) + rr * rr + n * c);
-  r.description = std::string(ToString(kind)) + " filter of the coupled model (" + std::to_string(system.n()) +
-                  " subsystems)";
+  r.description =
+      std::string(ToString(kind)) + " filter of the coupled model (" + std::to_string(system.n()) + " subsystems)";
   return r;
 }
 
@@ -148,7 +147,7 @@ ResolvedMethod ResolveKalmanFamily(const MethodSpec& spec, const ComparisonModel
     const Model design = LoadDesign(spec, "model", model, true);
     if (spec.Get("gain", "steady") == "schedule") {
       return KalmanWithSchedule(spec, design, KalmanFilterOptions(), T,
-                            "Kalman filter designed on " + spec.Get("model"));
+                                "Kalman filter designed on " + spec.Get("model"));
     }
     return SteadyGain(spec, design, "design model's", "steady-state filter designed on " + spec.Get("model"));
   }

@@ -24,8 +24,8 @@ Index Order(const MethodSpec& spec, Index n, const MatrixXd* basis_or_weight, bo
   if (spec.Has("order")) {
     const Index given = spec.GetPositive("order", 0);
     if (basis_or_weight && given != order) {
-      throw Error(Where(spec) + "order=" + Str(given) + " differs from the " + (weight ? "rows of weight" : "columns of basis") +
-                  " (" + Str(order) + ")");
+      throw Error(Where(spec) + "order=" + Str(given) + " differs from the " +
+                  (weight ? "rows of weight" : "columns of basis") + " (" + Str(order) + ")");
     }
     order = given;
   }
@@ -158,9 +158,8 @@ ResolvedMethod SubspaceOptimal(const MethodSpec& spec, const Model& model, const
   const bool usable = sch.summary.ok() || (!converged && sch.summary.termination == Termination::kNotConverged);
   if (!usable) throw NumericalError(Where(spec) + "schedule: " + sch.summary.BriefReport());
   ResolvedMethod r;
-  r.filter = std::make_shared<LinearFilter>(converged
-                                                ? ConvergedSubspaceFilterAsLinearFilter(s, sub, sch, model.m0())
-                                                : SubspaceFilterAsLinearFilter(s, sub, sch, model.m0()));
+  r.filter = std::make_shared<LinearFilter>(converged ? ConvergedSubspaceFilterAsLinearFilter(s, sub, sch, model.m0())
+                                                      : SubspaceFilterAsLinearFilter(s, sub, sch, model.m0()));
   (converged ? r.claimed_stationary_cov : r.claimed_cov) = sch.P_final;
   r.description = "subspace-optimal filter (000 Alg. 2.3), " + Str(sub.reduced_dim()) + "-dim subspace, " +
                   (converged ? "converged gain" : "gain schedule");

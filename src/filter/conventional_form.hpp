@@ -6,6 +6,8 @@
 // Included by filter_form.cpp only, where the run and schedule loops are instantiated with it.
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -261,6 +263,20 @@ bool UpdateInPlace(const Mat& C, const Mat& R, const YType& y, const KalmanFilte
   w.llt.compute(w.S);
   if (w.llt.info() != Eigen::Success) {
     throw NumericalError("innovation covariance S = C P C^T + R: not positive definite (Cholesky failed)");
+  }
+  // A Cholesky that succeeds by a rounding error (a pivot at the level of m eps max S_ii) has factored a
+  // matrix that is singular to working precision: whether it succeeds then depends on the order of the
+  // operations, and the gain it gives is noise. Refused alike on every machine.
+  {
+    const double pivot = w.llt.matrixLLT().diagonal().minCoeff();
+    const double scale = w.S.diagonal().maxCoeff();
+    if (pivot * pivot <= static_cast<double>(mo) * std::numeric_limits<double>::epsilon() * scale) {
+      char text[64];
+      std::snprintf(text, sizeof text, "%.3g", pivot * pivot);
+      throw NumericalError(std::string("innovation covariance S = C P C^T + R: singular to working precision "
+                                       "(smallest Cholesky pivot^2 ") +
+                           text + " <= m eps max S_ii)");
+    }
   }
   RightSolve(w.llt, w.U, w.K);
   Prod<Mat, false>(x, w.K, w.nu, Acc::kAdd);

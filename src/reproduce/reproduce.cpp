@@ -112,7 +112,8 @@ std::vector<std::string> WrapWords(const std::string& text, size_t width) {
   for (std::string w; words >> w;) {
     if (w == "=" && !units.empty()) {
       units.back() += " =";
-    } else if (!units.empty() && units.back().size() >= 2 && units.back().compare(units.back().size() - 2, 2, " =") == 0) {
+    } else if (!units.empty() && units.back().size() >= 2 &&
+               units.back().compare(units.back().size() - 2, 2, " =") == 0) {
       units.back() += " " + w;
     } else {
       units.push_back(w);
@@ -156,9 +157,8 @@ std::string FormatReportTable(const PaperReport& r) {
       if (d) rd << std::scientific << std::setprecision(1) << *d;
       const std::vector<std::string> lines = WrapWords(it.description, kDescriptionWidth);
       os << std::left << std::setw(static_cast<int>(wk)) << it.key << "  " << std::setw(static_cast<int>(wd))
-         << lines.front() << "  " << std::right << std::setw(13) << FormatNumber(it.published) << "  "
-         << std::setw(13) << FormatNumber(it.value) << "  " << std::setw(9) << (d ? rd.str() : "-") << "  "
-         << it.status() << "\n";
+         << lines.front() << "  " << std::right << std::setw(13) << FormatNumber(it.published) << "  " << std::setw(13)
+         << FormatNumber(it.value) << "  " << std::setw(9) << (d ? rd.str() : "-") << "  " << it.status() << "\n";
       for (size_t i = 1; i < lines.size(); ++i) os << std::string(wk + 2, ' ') << lines[i] << "\n";
       if (!it.note.empty()) os << "    note: " << it.note << "\n";
     }
@@ -182,14 +182,15 @@ std::string FormatReportSummary(const PaperReport& r, const std::string& full_ta
     if (it.status() == "reproduced" && key.size() < 4) key.push_back(&it);
   }
   std::ostringstream os;
-  os << "== " << r.paper << ": " << r.title << "\n   " << r.items.size() << " items: " << reproduced
-     << " reproduced, " << differs << " differs, " << fresh << " new\n";
+  os << "== " << r.paper << ": " << r.title << "\n   " << r.items.size() << " items: " << reproduced << " reproduced, "
+     << differs << " differs, " << fresh << " new\n";
   for (const ReproduceItem* it : key) {
     const auto d = it->rel_diff();
     std::ostringstream rd;
     if (d) rd << std::scientific << std::setprecision(1) << *d;
-    os << "   " << it->status() << ": " << it->key << " = " << FormatNumber(std::optional<double>(it->value)) << " (published "
-       << FormatNumber(it->published) << ", rel. diff " << (d ? rd.str() : "-") << "): " << it->description << "\n";
+    os << "   " << it->status() << ": " << it->key << " = " << FormatNumber(std::optional<double>(it->value))
+       << " (published " << FormatNumber(it->published) << ", rel. diff " << (d ? rd.str() : "-")
+       << "): " << it->description << "\n";
   }
   if (!r.figures.empty()) os << "   " << r.figures.size() << " figure files, e.g. " << r.figures.front() << "\n";
   if (!full_table.empty()) os << "   full table: " << full_table << "\n";

@@ -182,8 +182,8 @@ void SetOriginal(const Original& o, DareSolution* sol) {
 }
 
 /// kSchur: SG02AD, then the stability proof on F = E^{-1} (A - K_p C) and P.
-DareSolution SolveBySg02ad(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R,
-                           const Problem& p, const DareOptions& options) {
+DareSolution SolveBySg02ad(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, const Problem& p,
+                           const DareOptions& options) {
   DareSolution sol;
   sol.method_used = DareMethod::kSchur;
   Summary& sum = sol.summary;
@@ -204,8 +204,8 @@ DareSolution SolveBySg02ad(const ConstRef& A, const ConstRef& C, const ConstRef&
   if (sol.predictor_gain.size() != p.n * p.m) return sol;
   MatrixXd F = A;
   F.noalias() -= sol.predictor_gain * C;
-  double e = 2 * (static_cast<double>(p.m) + 2) * detail::kUnitRoundoff *
-             (A.norm() + sol.predictor_gain.norm() * C.norm());
+  double e =
+      2 * (static_cast<double>(p.m) + 2) * detail::kUnitRoundoff * (A.norm() + sol.predictor_gain.norm() * C.norm());
   if (p.has_e) {
     // F = E^{-1} (A - K_p C). |E^{-1}|_2 <= sqrt(n) |E^{-1}|_1 = sqrt(n) / (rcond_1 |E|_1), and the LU
     // solve adds about n u cond(E) |F|; rcond_1 is an estimate (within a factor of a few), hence the
@@ -239,8 +239,9 @@ DareSolution SolveBySg02ad(const ConstRef& A, const ConstRef& C, const ConstRef&
   if (sum.ok() && (!stable || !psd)) {
     sum.termination = Termination::kNotStabilizing;
     if (!stable) {
-      sum.message += "; not stabilizing: rho(E^{-1} (A - K_p C)) = " +
-                     FormatNumber(sol.closed_loop_spectral_radius, 17) + " >= 1 - stability_margin";
+      sum.message +=
+          "; not stabilizing: rho(E^{-1} (A - K_p C)) = " + FormatNumber(sol.closed_loop_spectral_radius, 17) +
+          " >= 1 - stability_margin";
     }
     if (!psd) sum.message += "; P is not PSD: lambda_min(P) = " + FormatNumber(sol.min_eigenvalue);
   }

@@ -150,8 +150,9 @@ TEST_F(CompareTest, OnlineImplementationsEqualTheLinearFilterRun) {
   const TimeSeries y = Simulate(truth_->model, {kT, 5}).y;
   MethodOptions mo;
   mo.steps = kT;
-  const std::vector<std::string> texts = {"kalman",      "kalman:form=standard", "steady", "tau:order=4",
-                                          "mu:order=4,step=two-forecast", "subspace:basis=" + Path("E3.npy")};
+  const std::vector<std::string> texts = {
+      "kalman",      "kalman:form=standard",         "steady",
+      "tau:order=4", "mu:order=4,step=two-forecast", "subspace:basis=" + Path("E3.npy")};
   for (const std::string& t : texts) {
     const ResolvedMethod m = ResolveMethod(ParseMethodSpec(t), *truth_, mo);
     const TimeSeries own = m.run(y);

@@ -69,7 +69,8 @@ void ExpectValid(const System& s, const DareSolution& d, double tol) {
   EXPECT_EQ(P, P.transpose());
   EXPECT_GE(Eigen::SelfAdjointEigenSolver<MatrixXd>(P).eigenvalues().minCoeff(), -1e-12 * P.norm());
   EXPECT_LT(ClosedLoopRho(s, d), 1.0);
-  EXPECT_MATRICES_NEAR(d.predictor_gain * W, s.A * P * s.C.transpose() + Sx, 1e-10 * std::max(1.0, W.norm() * P.norm()));
+  EXPECT_MATRICES_NEAR(d.predictor_gain * W, s.A * P * s.C.transpose() + Sx,
+                       1e-10 * std::max(1.0, W.norm() * P.norm()));
   EXPECT_MATRICES_NEAR(d.filter_gain * W, P * s.C.transpose(), 1e-10 * std::max(1.0, W.norm() * P.norm()));
   EXPECT_MATRICES_NEAR(d.P_filt, P - d.filter_gain * s.C * P, 1e-10 * std::max(1.0, P.norm()));
 }
@@ -84,10 +85,9 @@ TEST(GeneralDare, ScalarClosedForm) {
       const double qa = e * e * c * c, qb = (e * e - a * a) * r - q * c * c + 2 * a * c * s, qc = s * s - q * r;
       const double p = (-qb + std::sqrt(qb * qb - 4 * qa * qc)) / (2 * qa);
       for (DareMethod method : {DareMethod::kAuto, DareMethod::kDoubling, DareMethod::kSchur}) {
-        const DareSolution d = SolveFilterDare(MatrixXd::Constant(1, 1, a), MatrixXd::Constant(1, 1, c),
-                                               MatrixXd::Constant(1, 1, q), MatrixXd::Constant(1, 1, r),
-                                               MatrixXd::Constant(1, 1, s), MatrixXd::Constant(1, 1, e),
-                                               WithMethod(method));
+        const DareSolution d = SolveFilterDare(
+            MatrixXd::Constant(1, 1, a), MatrixXd::Constant(1, 1, c), MatrixXd::Constant(1, 1, q),
+            MatrixXd::Constant(1, 1, r), MatrixXd::Constant(1, 1, s), MatrixXd::Constant(1, 1, e), WithMethod(method));
         ASSERT_TRUE(d.summary.ok()) << d.summary.FullReport();
         EXPECT_NEAR(d.P_pred(0, 0), p, 1e-13 * p) << "e " << e << " s " << s << " " << ToString(method);
         EXPECT_NEAR(d.predictor_gain(0, 0), (a * p * c + s) / (c * c * p + r), 1e-13);
@@ -161,8 +161,7 @@ TEST(GeneralDare, PythonControlCrossTermDescriptorCase) {
     const MatrixXd& X = d.P_pred;
     const MatrixXd G = (B.transpose() * X * B + R).inverse() * (B.transpose() * X * A + S.transpose());
     EXPECT_MATRICES_NEAR(G, d.predictor_gain.transpose(), 1e-12);
-    const MatrixXd res = A.transpose() * X * A - E.transpose() * X * E -
-                         (A.transpose() * X * B + S) * G + Q;
+    const MatrixXd res = A.transpose() * X * A - E.transpose() * X * E - (A.transpose() * X * B + S) * G + Q;
     EXPECT_LE(res.norm(), 1e-12 * X.norm());
     EXPECT_LT(SpectralRadius(E.partialPivLu().solve(A - B * G)), 1.0);
   }

@@ -1,7 +1,7 @@
 // A user of kfx::kfx_mpi (find_package(kfx COMPONENTS mpi)), run by tests/install/run.sh under mpirun:
 // kfx's compensated all-reduce of every rank's number against the closed-form sum.
-#include <kfx/mpi.hpp>
 #include <mpi.h>
+#include <kfx/mpi.hpp>
 
 #include <cstdio>
 #include <vector>
