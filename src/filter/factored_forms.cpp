@@ -32,10 +32,19 @@ using Eigen::VectorXd;
 constexpr double kLog2Pi = 1.8378770664093454835606594728112;
 
 // G with G G^T = M for a symmetric positive semidefinite M (pivoted LDL^T; pivots that rounding
-// made negative are set to zero). n x n, not triangular.
+// made negative are set to zero). n x n, not triangular. A rank-deficient M (Q = B U B^T with fewer
+// noise inputs than states) can make Eigen's LDL^T give up after a zero pivot that rounding turned
+// into a tiny nonzero one; then the symmetric eigendecomposition M = V diag(l) V^T gives
+// G = V diag(sqrt(max(l, 0))), which exists for every symmetric M that is PSD to rounding.
 MatrixXd PsdFactor(const MatrixXd& M, const char* what) {
   Eigen::LDLT<MatrixXd> ldlt(M);
-  if (ldlt.info() != Eigen::Success) throw NumericalError(std::string(what) + ": LDL^T factorization failed");
+  if (ldlt.info() != Eigen::Success) {
+    Eigen::SelfAdjointEigenSolver<MatrixXd> eig(M);
+    if (eig.info() != Eigen::Success) {
+      throw NumericalError(std::string(what) + ": neither LDL^T nor the eigendecomposition succeeded");
+    }
+    return eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  }
   const VectorXd sqrt_d = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt();
   MatrixXd L = ldlt.matrixL();
   L = L * sqrt_d.asDiagonal();
