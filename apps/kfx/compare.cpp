@@ -106,7 +106,9 @@ void WriteCurves(const Comparison& c, const OutputDirectory& dir) {
   }
   rows << "\"Kalman filter (reference)\",,,," << c.kalman_final << ',' << c.kalman_stationary << ",1,"
        << (c.stationary ? c.kalman_stationary : c.kalman_final) << '\n';
-  WriteText(dir.Path("compare_rows.csv"), rows.str());
+  std::string text = rows.str();
+  text.pop_back();  // WriteText ends the file with one newline
+  WriteText(dir.Path("compare_rows.csv"), text);
   std::ostringstream curves;
   curves.precision(12);
   curves << "k";
@@ -117,7 +119,9 @@ void WriteCurves(const Comparison& c, const OutputDirectory& dir) {
     for (const CompareRow& r : c.rows) curves << ',' << r.mse(k);
     curves << '\n';
   }
-  WriteText(dir.Path("compare_curves.csv"), curves.str());
+  text = curves.str();
+  text.pop_back();
+  WriteText(dir.Path("compare_curves.csv"), text);
 }
 
 }  // namespace

@@ -389,7 +389,7 @@ def compare(d):
     with open(curves_path, newline="") as f:
         reader = csv.reader(f)
         header = next(reader)
-        data = [[float(x) for x in line] for line in reader]
+        data = [[float(x) for x in line] for line in reader if line]
     k = [r[0] for r in data]
     curves = {name: [r[i + 1] for r in data] for i, name in enumerate(header[1:])}
     finals = [float(r["mse"]) for r in rows if r["state_dim"] == ""]

@@ -38,6 +38,11 @@ PY
   --method "subspace61:basis=$tmp/E.npy" --json "$tmp/cmp.json" --out "$tmp/out" > "$tmp/table.txt"
 cat "$tmp/table.txt"
 test -s "$tmp/out/compare_rows.csv" && test -s "$tmp/out/compare_curves.csv" && test -s "$tmp/out/compare.json"
+# The figures, where matplotlib is installed (make test installs it): both drawn, no "not drawn" message.
+if /usr/bin/python3 -c "import matplotlib" 2> /dev/null; then
+  test -s "$tmp/out/compare_pareto.png" && test -s "$tmp/out/compare_error_vs_time.png"
+  ! grep -q "not drawn" "$tmp/table.txt"
+fi
 /usr/bin/python3 - "$tmp/cmp.json" <<'PY'
 import json, sys
 c = json.load(open(sys.argv[1]))
