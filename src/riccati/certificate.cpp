@@ -143,6 +143,34 @@ StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, doub
   return done(Termination::kConverged, proven);
 }
 
+StabilizingVerdict JudgeStabilizing(const ConstRef& F, double perturbation, bool exact_eigenvalues,
+                                    double stability_margin, double psd_tolerance, DareSolution* sol) {
+  StabilizingVerdict v;
+  sol->eigenvalues_exact = true;  // until the certificate's bounds are taken
+  sol->lyapunov_certified = false;
+  if (!exact_eigenvalues) {
+    const StabilityCertificate cert = CertifyUnchecked(F, sol->P_pred, perturbation);
+    // Proven: P > 0 and rho(F) < 1 - margin (for margin 0 the bare certificate suffices).
+    sol->lyapunov_certified =
+        cert.certified() && (stability_margin == 0.0 || cert.spectral_radius_bound < 1.0 - stability_margin);
+    v.stable = v.psd = sol->lyapunov_certified;
+    if (sol->lyapunov_certified && cert.spectral_radius_bound < 1.0 && cert.min_eigenvalue_bound > 0.0) {
+      sol->closed_loop_spectral_radius = cert.spectral_radius_bound;
+      sol->min_eigenvalue = cert.min_eigenvalue_bound;
+      sol->eigenvalues_exact = false;
+    }
+  }
+  if (sol->eigenvalues_exact) {  // asked for, not proven, or proven without a bound below 1 to report
+    sol->closed_loop_spectral_radius = SpectralRadiusUnchecked(F);
+    sol->min_eigenvalue = MinEigenvalue(sol->P_pred);
+    if (!sol->lyapunov_certified) {
+      v.stable = sol->closed_loop_spectral_radius < 1.0 - stability_margin;
+      v.psd = sol->min_eigenvalue >= -psd_tolerance * std::max(sol->P_pred.norm(), kTiny);
+    }
+  }
+  return v;
+}
+
 }  // namespace detail
 
 StabilityCertificate CertifyStability(const Eigen::Ref<const Eigen::MatrixXd>& F,

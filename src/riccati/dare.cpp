@@ -200,31 +200,10 @@ DareSolution Finalize(const ConstRef& A, const ConstRef& C, const ConstRef& Q, c
   // see CertifyUnchecked), robust to the rounding of forming F: |fl(A - K_p C) - (A - K_p C)|
   // <= gamma_{m+1} (|A| + |K_p| |C|) entrywise. Its bounds are reported unless exact eigenvalues are
   // asked for; DGEEV and DSYEVR run only when it cannot decide (or gives no bound below 1 - margin).
-  bool stable = false, psd = false;
-  sol.eigenvalues_exact = true;  // until the certificate's bounds are taken
-  if (!options.exact_eigenvalues) {
-    const double md = static_cast<double>(C.rows());
-    const double e = 2 * (md + 2) * kUnitRoundoff * (A.norm() + sol.predictor_gain.norm() * C.norm());
-    const StabilityCertificate cert = CertifyUnchecked(closed_loop, sol.P_pred, e);
-    // Proven: P > 0 and rho(F) < 1 - margin (for margin 0 the bare certificate suffices).
-    sol.lyapunov_certified = cert.certified() && (options.stability_margin == 0.0 ||
-                                                  cert.spectral_radius_bound < 1.0 - options.stability_margin);
-    stable = psd = sol.lyapunov_certified;
-    if (sol.lyapunov_certified && cert.spectral_radius_bound < 1.0 && cert.min_eigenvalue_bound > 0.0) {
-      sol.closed_loop_spectral_radius = cert.spectral_radius_bound;
-      sol.min_eigenvalue = cert.min_eigenvalue_bound;
-      sol.eigenvalues_exact = false;
-    }
-  }
-  if (sol.eigenvalues_exact) {  // asked for, not proven, or proven without a bound below 1 to report
-    sol.closed_loop_spectral_radius = SpectralRadiusUnchecked(closed_loop);
-    sol.min_eigenvalue = MinEigenvalue(sol.P_pred);
-    sol.eigenvalues_exact = true;
-    if (!sol.lyapunov_certified) {
-      stable = sol.closed_loop_spectral_radius < 1.0 - options.stability_margin;
-      psd = sol.min_eigenvalue >= -kPsdTolerance * std::max(sol.P_pred.norm(), kTiny);
-    }
-  }
+  const double md = static_cast<double>(C.rows());
+  const double e = 2 * (md + 2) * kUnitRoundoff * (A.norm() + sol.predictor_gain.norm() * C.norm());
+  const auto [stable, psd] = JudgeStabilizing(closed_loop, e, options.exact_eigenvalues, options.stability_margin,
+                                              kPsdTolerance, &sol);
   const bool residual_ok = sum.relative_residual <= kResidualAcceptance;
   if (sum.termination == Termination::kConverged) {
     if (!residual_ok) {

@@ -215,27 +215,8 @@ DareSolution SolveBySg02ad(const ConstRef& A, const ConstRef& C, const ConstRef&
     const double nd = static_cast<double>(p.n);
     e = 10.0 * (e * std::sqrt(nd) / (p.e_rcond * norm1) + 4.0 * nd * detail::kUnitRoundoff / p.e_rcond * F.norm());
   }
-  sol.eigenvalues_exact = true;
-  bool stable = false, psd = false;
-  if (!options.exact_eigenvalues) {
-    const StabilityCertificate cert = detail::CertifyUnchecked(F, sol.P_pred, e);
-    sol.lyapunov_certified = cert.certified() && (options.stability_margin == 0.0 ||
-                                                  cert.spectral_radius_bound < 1.0 - options.stability_margin);
-    stable = psd = sol.lyapunov_certified;
-    if (sol.lyapunov_certified && cert.spectral_radius_bound < 1.0 && cert.min_eigenvalue_bound > 0.0) {
-      sol.closed_loop_spectral_radius = cert.spectral_radius_bound;
-      sol.min_eigenvalue = cert.min_eigenvalue_bound;
-      sol.eigenvalues_exact = false;
-    }
-  }
-  if (sol.eigenvalues_exact) {
-    sol.closed_loop_spectral_radius = detail::SpectralRadiusUnchecked(F);
-    sol.min_eigenvalue = detail::MinEigenvalue(sol.P_pred);
-    if (!sol.lyapunov_certified) {
-      stable = sol.closed_loop_spectral_radius < 1.0 - options.stability_margin;
-      psd = sol.min_eigenvalue >= -kPsdTolerance * std::max(sol.P_pred.norm(), detail::kTiny);
-    }
-  }
+  const auto [stable, psd] = detail::JudgeStabilizing(F, e, options.exact_eigenvalues, options.stability_margin,
+                                                      kPsdTolerance, &sol);
   if (sum.ok() && (!stable || !psd)) {
     sum.termination = Termination::kNotStabilizing;
     if (!stable) {

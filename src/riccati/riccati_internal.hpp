@@ -44,4 +44,16 @@ double MinEigenvalue(const Eigen::MatrixXd& p);
 /// CertifyStability on validated input (F, X square of the same size, finite, X exactly symmetric).
 StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, double perturbation);
 
+/// The stabilizing-solution verdict shared by the DARE solvers: the closed loop F (A - K_p C, or
+/// E^{-1} (A - K_p C)) and P = sol->P_pred, with `perturbation` the entrywise bound on the rounding of
+/// forming F. Unless `exact_eigenvalues`, the Lyapunov certificate decides (its bounds go into sol);
+/// DGEEV and DSYEVR run only when it cannot (or gives no bound below 1 - margin). Sets sol's
+/// closed_loop_spectral_radius, min_eigenvalue, eigenvalues_exact and lyapunov_certified.
+struct StabilizingVerdict {
+  bool stable = false;  ///< rho(F) < 1 - stability_margin (proven or from the eigenvalues)
+  bool psd = false;     ///< P positive semidefinite within the relative tolerance psd_tolerance
+};
+StabilizingVerdict JudgeStabilizing(const ConstRef& F, double perturbation, bool exact_eigenvalues,
+                                    double stability_margin, double psd_tolerance, DareSolution* sol);
+
 }  // namespace kfx::detail
