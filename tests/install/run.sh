@@ -19,10 +19,17 @@ quiet() {  # runs a command, shows its output only when it fails
   if ! "$@" > "$log" 2>&1; then cat "$log"; rm -f "$log"; echo "FAILED: $*"; exit 1; fi
   rm -f "$log"
 }
+check_mpi_header() {  # kfx/mpi.hpp is installed exactly when kfx::kfx_mpi is
+  local with_mpi=no header=no
+  compgen -G "$1/lib*/cmake/kfx/kfxMpiTargets.cmake" > /dev/null && with_mpi=yes
+  [[ -f "$1/include/kfx/mpi.hpp" ]] && header=yes
+  [[ $with_mpi == "$header" ]] || { echo "FAILED: kfx_mpi installed: $with_mpi, kfx/mpi.hpp installed: $header"; exit 1; }
+}
 case "$step" in
   prefix)
     rm -rf "$2"
     quiet cmake --install "$1" --prefix "$2"
+    check_mpi_header "$2"
     echo "installed $1 into $2"
     ;;
   subproject)
@@ -35,6 +42,7 @@ case "$step" in
     "$work/consumer"
     rm -rf "$prefix"
     quiet cmake --install "$work" --prefix "$prefix"
+    check_mpi_header "$prefix"
     ls "$prefix"/lib*/libkfx*
     ;;
   cmake)
