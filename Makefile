@@ -36,8 +36,18 @@ build: deps
 demo: build
 	@bash examples/demo.sh $(KFX) $(if $(FULL),--full,)
 
+# make test is README's "Building from source" recipe run verbatim in this tree (tests/readme/run_recipe.sh
+# --in-place: `cmake -S . -B build && cmake --build build && ctest --test-dir build`), with JOBS cores and
+# the output of failed tests shown, so that the recipe is tested by every CI run. The recipe builds in
+# build/: with another BUILD, the same steps in $(BUILD).
+ifeq ($(BUILD),build)
+test: deps
+	CMAKE_BUILD_PARALLEL_LEVEL=$(JOBS) CTEST_PARALLEL_LEVEL=$(JOBS) CTEST_OUTPUT_ON_FAILURE=1 \
+	  bash tests/readme/run_recipe.sh --in-place .
+else
 test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j$(JOBS)
+endif
 
 # The install tests (tests/install/) with Clang installed, so that the clang++ consumers run too (make test
 # skips them where clang++ is missing).
@@ -46,7 +56,8 @@ test-install: build
 	@bash tools/install-deps.sh $(DEPS_BUILD) fuzz
 	ctest --test-dir $(BUILD) --output-on-failure -j$(JOBS) -L install
 
-# README's "Building from source" recipe run verbatim on a copy of the tree (tests/readme/run_recipe.sh).
+# README's "Building from source" recipe run verbatim on a copy of the tree (tests/readme/run_recipe.sh):
+# also the tracked and untracked files only, without this tree's build/ (make test runs it in place).
 test-readme: deps
 	bash tests/readme/run_recipe.sh .
 
