@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstdint>
 #include <limits>
 #include <numeric>
+#include <utility>
 #include <vector>
 
 #include "base/lapack_fortran.hpp"
@@ -21,17 +23,41 @@ using Eigen::VectorXd;
 
 namespace {
 
-// The orthonormal basis of span(U) (U orthonormal, n x r) that does not depend on U: the polar
-// factor of P E, P = U U^T, E the r coordinate axes picked by a column-pivoted QR of P.
-MatrixXd CanonicalBasis(const MatrixXd& U) {
-  const Index r = U.cols();
-  const MatrixXd P = U * U.transpose();
-  Eigen::ColPivHouseholderQR<MatrixXd> qr(P);
-  const auto& perm = qr.colsPermutation().indices();
-  MatrixXd W(r, r);  // U^T E
-  for (Index j = 0; j < r; ++j) W.col(j) = U.row(perm(j)).transpose();
-  Eigen::JacobiSVD<MatrixXd> svd(W, Eigen::ComputeFullU | Eigen::ComputeFullV);
+// A fixed orthogonal n x n matrix, the same on every machine: the Q factor of a matrix of splitmix64
+// numbers in (-1, 1).
+MatrixXd ReferenceFrame(Index n) {
+  std::uint64_t state = 0x2545F4914F6CDD1DULL;
+  MatrixXd M(n, n);
+  for (Index j = 0; j < n; ++j) {
+    for (Index i = 0; i < n; ++i) {
+      std::uint64_t z = (state += 0x9E3779B97F4A7C15ULL);
+      z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+      z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+      z ^= z >> 31;
+      M(i, j) = static_cast<double>(z >> 11) * 0x1.0p-52 - 1.0;
+    }
+  }
+  return Eigen::HouseholderQR<MatrixXd>(M).householderQ();
+}
+
+// The orthonormal basis of span(U) (U orthonormal, n x r) closest to the reference columns G (n x r,
+// orthonormal): the polar factor of P G, P = U U^T. It depends on span(U) and G only, continuously.
+MatrixXd PolarBasis(const MatrixXd& U, const MatrixXd& G) {
+  Eigen::JacobiSVD<MatrixXd> svd(U.transpose() * G, Eigen::ComputeFullU | Eigen::ComputeFullV);
   return U * (svd.matrixU() * svd.matrixV().transpose());
+}
+
+// Canonical bases of span(U1) and of its orthogonal complement span(U2): the polar factors against the
+// first r1 and the last n - r1 columns of one fixed orthogonal frame G. By the CS decomposition
+// U1^T G1 and U2^T G2 have the same singular values (but ones), so the two bases are equally well
+// determined, and a generic G is in no special position to the subspaces of a symmetric problem.
+// The bases used to be taken against coordinate axes picked by a pivoted QR of the projector; on a
+// symmetric chain (001 Sec. VI, mirror-image masses) the projector's columns tie in pairs, rounding
+// broke the ties, and the basis (so the paper's weight L T^T) changed with the BLAS kernel
+// (docs/robustness.md, class 15).
+std::pair<MatrixXd, MatrixXd> CanonicalBases(const MatrixXd& U1, const MatrixXd& U2) {
+  const MatrixXd G = ReferenceFrame(U1.rows());
+  return {PolarBasis(U1, G.leftCols(U1.cols())), PolarBasis(U2, G.rightCols(U2.cols()))};
 }
 
 }  // namespace
@@ -82,8 +108,9 @@ InvariantSubspaceBasis LeastDampedSubspace(const Eigen::MatrixXd& A, Eigen::Inde
   InvariantSubspaceBasis out;
   out.n_r = n_r;
   out.T.resize(n, n);
-  out.T.leftCols(n_r) = CanonicalBasis(z.leftCols(n_r));
-  out.T.rightCols(n - n_r) = CanonicalBasis(z.rightCols(n - n_r));
+  const auto bases = CanonicalBases(z.leftCols(n_r), z.rightCols(n - n_r));
+  out.T.leftCols(n_r) = bases.first;
+  out.T.rightCols(n - n_r) = bases.second;
   std::vector<std::complex<double>> sel, oth;
   for (int i = 0; i < n; ++i) (i < n_r ? sel : oth).emplace_back(wr(i), wi(i));
   auto by_abs = [](const std::complex<double>& x, const std::complex<double>& y) { return std::abs(x) > std::abs(y); };
