@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -75,16 +76,49 @@ struct StationaryPerformance {
   Summary summary;
 };
 
+/// The true model's part of the stationary joint equation, computed once and shared by every filter
+/// evaluated on it (ExactStationaryPerformance below): the real Schur form A = U T U^T (LAPACK DGEES),
+/// rho(A) from it, and, when rho(A) < 1, the stationary state covariance S^xx = A S^xx A^T + Q (the
+/// x-block of (4) in docs/exact-performance.md) with its residual. Copies share the computed parts.
+/// Cost: the Schur form (about 25 n^3 flops) and the blocked Schur solve (about 9 n^3) once.
+/// @throws kfx::Error if the model is time-varying.
+class StationaryTruth {
+ public:
+  explicit StationaryTruth(const Model& truth);
+  const Model& model() const;
+  double spectral_radius() const;  ///< rho(A)
+  /// S^xx (n x n) when rho(A) < 1 and its solve succeeded; empty otherwise.
+  const Eigen::MatrixXd& state_covariance() const;
+  /// The outcome of the S^xx solve (kUnstable when rho(A) >= 1; relative_residual of X = A X A^T + Q).
+  const Summary& summary() const;
+  struct Impl;  ///< opaque (src/core/stationary_performance.cpp)
+
+ private:
+  friend StationaryPerformance ExactStationaryPerformance(const StationaryTruth& truth, const LinearFilter& filter,
+                                                          const StationaryPerformanceOptions& options);
+  std::shared_ptr<const Impl> impl_;
+};
+
 /// Stationary error of a time-invariant filter on a time-invariant model.
 /// Uses the joint Lyapunov equation when both the true system (rho(A) < 1) and the filter
 /// (rho(Phi) < 1) are stable; otherwise, for a consistent filter (n_z = n, O = I,
 /// Phi = (I - K C) A) with rho((I - K C) A) < 1, the error-coordinates equation
 ///   E = F E F^T + (I - K C) Q (I - K C)^T + K R K^T,  F = (I - K C) A;
 /// otherwise summary.termination is kUnstable (the error is not stationary; use ExactPerformance).
-/// Both equations are solved by the Schur method (LyapunovMethod::kSchur).
+/// The joint equation is solved block by block on the real Schur forms of A and Phi (recursive blocked
+/// Bartels-Stewart), the error-coordinates equation by SolveDiscreteLyapunov (LyapunovMethod::kSchur).
 /// @throws kfx::Error if either is time-varying, dimensions differ, or the weight is not n x n PSD.
 StationaryPerformance ExactStationaryPerformance(
     const Model& truth, const LinearFilter& filter,
+    const StationaryPerformanceOptions& options = StationaryPerformanceOptions());
+
+/// The same with the true model's part computed once (StationaryTruth): evaluating many filters on one
+/// model solves only the filter's blocks of (4) per filter: the cross block S^xz = A S^xz Phi^T +
+/// (A S^xx A^T + Q) C^T K^T (a Stein equation on the Schur forms of A and Phi) and the filter block
+/// S^zz = Phi S^zz Phi^T + K (C S^xx C^T + R) K^T + H + H^T, H = K C A S^xz Phi^T (docs/exact-performance.md,
+/// section 4). Same results and contract as the overload above.
+StationaryPerformance ExactStationaryPerformance(
+    const StationaryTruth& truth, const LinearFilter& filter,
     const StationaryPerformanceOptions& options = StationaryPerformanceOptions());
 
 struct MonteCarloOptions {

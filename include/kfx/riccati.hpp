@@ -104,9 +104,11 @@ double FilterDareResidual(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eige
                           const Eigen::Ref<const Eigen::MatrixXd>& P);
 
 enum class LyapunovMethod {
-  kAuto,   ///< kSmith when it converges to a residual <= 1e-13 (stable A, rho below about 0.998), else kSchur.
-  kSchur,  ///< Bartels-Stewart / Barraud on the real Schur form (SLICOT SB03MD); any A without
-           ///< eigenvalue pairs lambda_i lambda_j = 1.
+  kAuto,   ///< kSmith when it converges to a residual <= 1e-13 (stable A, rho below about 0.998; for n >= 1000
+           ///< only when it predicts at most 11 steps), else kSchur.
+  kSchur,  ///< Bartels-Stewart on the real Schur form (LAPACK DGEES, then kfx's recursive blocked solve of the
+           ///< quasi-triangular equation, its updates matrix products); any A without eigenvalue pairs
+           ///< lambda_i lambda_j = 1.
   kSmith,  ///< the squared Smith iteration (doubling, GEMMs only); stable A only.
 };
 const char* ToString(LyapunovMethod method);
@@ -133,7 +135,8 @@ struct LyapunovSolution {
 /// Discrete Lyapunov (Stein) equation X = A X A^T + Q. Solvable when no two eigenvalues of A have
 /// product 1; for stable A (rho < 1) X is the stationary covariance of x_k = A x_{k-1} + w_k and PSD
 /// when Q is. Squared Smith iteration: X_0 = Q, A_0 = A, X_{j+1} = X_j + A_j X_j A_j^T, A_{j+1} = A_j^2
-/// (about 60 n^3 GEMM flops at rho = 0.95); Schur: SLICOT SB03MD (~30 n^3 flops, mostly BLAS 2).
+/// (about 43 n^3 GEMM flops at rho = 0.95); Schur: DGEES (~25 n^3 flops) and a recursive blocked
+/// Bartels-Stewart solve (~9 n^3 flops in matrix products, the transformations included).
 /// @param A n x n, @param Q n x n symmetric.
 /// @throws kfx::Error on invalid input. A singular equation is summary.termination kSingular.
 LyapunovSolution SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A,

@@ -6,13 +6,12 @@
 #include <limits>
 
 #include "kfx/error.hpp"
-#include "kfx/riccati.hpp"
 #include "kfx/simulation.hpp"
 #include "kfx/validation.hpp"
 
 namespace kfx {
 
-namespace {
+namespace detail {
 
 void CheckCompatible(const Model& truth, const LinearFilter& filter) {
   if (filter.meas_dim() != truth.meas_dim()) {
@@ -30,6 +29,38 @@ void CheckWeight(const Eigen::MatrixXd& weight, Eigen::Index n, const std::strin
   RequireShape(name, weight, n, n);
   RequirePositiveSemidefinite(name, weight);
 }
+
+double WeightedTrace(const Eigen::MatrixXd& weight, const Eigen::MatrixXd& E) {
+  if (weight.size() == 0) return E.trace();
+  return weight.cwiseProduct(E).sum();  // tr(W E) for symmetric E
+}
+
+// E[e e^T] with e = x - O z from second moments (Mxx, Mxz, Mzz include the means).
+Eigen::MatrixXd ErrorMoment(const Eigen::MatrixXd& Mxx, const Eigen::MatrixXd& Mxz, const Eigen::MatrixXd& Mzz,
+                            const Eigen::MatrixXd& O) {
+  Eigen::MatrixXd E = Mxx;
+  if (O.size() == 0) {
+    E -= Mxz;
+    E -= Mxz.transpose();
+    E += Mzz;
+  } else {
+    const Eigen::MatrixXd OMzx = O * Mxz.transpose();  // n x n
+    E -= OMzx;
+    E -= OMzx.transpose();
+    E.noalias() += O * Mzz * O.transpose();
+  }
+  Symmetrize(E);
+  return E;
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::CheckCompatible;
+using detail::CheckWeight;
+using detail::ErrorMoment;
+using detail::WeightedTrace;
 
 int ResolveHorizon(const Model& truth, const LinearFilter& filter, int steps) {
   if (steps >= 0) {
@@ -55,29 +86,6 @@ int CheckEvaluation(const Model& truth, const LinearFilter& filter, const Option
   CheckCompatible(truth, filter);
   CheckWeight(options.weight, truth.state_dim(), "options.weight");
   return ResolveHorizon(truth, filter, options.steps);
-}
-
-double WeightedTrace(const Eigen::MatrixXd& weight, const Eigen::MatrixXd& E) {
-  if (weight.size() == 0) return E.trace();
-  return weight.cwiseProduct(E).sum();  // tr(W E) for symmetric E
-}
-
-// E[e e^T] with e = x - O z from second moments (Mxx, Mxz, Mzz include the means).
-Eigen::MatrixXd ErrorMoment(const Eigen::MatrixXd& Mxx, const Eigen::MatrixXd& Mxz, const Eigen::MatrixXd& Mzz,
-                            const Eigen::MatrixXd& O) {
-  Eigen::MatrixXd E = Mxx;
-  if (O.size() == 0) {
-    E -= Mxz;
-    E -= Mxz.transpose();
-    E += Mzz;
-  } else {
-    const Eigen::MatrixXd OMzx = O * Mxz.transpose();  // n x n
-    E -= OMzx;
-    E -= OMzx.transpose();
-    E.noalias() += O * Mzz * O.transpose();
-  }
-  Symmetrize(E);
-  return E;
 }
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
@@ -190,93 +198,6 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
   res.summary.iterations = T;
   res.summary.seconds = SecondsSince(start);
   return res;
-}
-
-StationaryPerformance ExactStationaryPerformance(const Model& truth, const LinearFilter& filter,
-                                                 const StationaryPerformanceOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  if (!truth.time_invariant()) throw Error("truth: expected a time-invariant model for stationary performance");
-  if (!filter.time_invariant()) throw Error("filter: expected a time-invariant filter for stationary performance");
-  std::string why;
-  if (!options.IsValid(&why)) throw Error("options." + why);
-  CheckCompatible(truth, filter);
-  const Eigen::Index n = truth.state_dim(), nz = filter.state_dim();
-  CheckWeight(options.weight, n, "options.weight");
-  const StepPtr s = truth.step(1);
-  const LinearFilterStepPtr f = filter.step(1);
-  StationaryPerformance out;
-  Summary& sum = out.summary;
-  sum.computation = "stationary performance";
-  const double rho_a = SpectralRadius(s->A);
-  const double rho_phi = SpectralRadius(f->Phi);
-  LyapunovOptions lyapunov;
-  lyapunov.method = LyapunovMethod::kSchur;
-  LyapunovSolution sol;
-  if (rho_a < 1.0 && rho_phi < 1.0) {
-    // Joint system AA = [[A, 0], [K C A, Phi]], noise BB diag(Q, R) BB^T with BB = [[I, 0], [K C, K]].
-    Eigen::MatrixXd AA = Eigen::MatrixXd::Zero(n + nz, n + nz);
-    AA.topLeftCorner(n, n) = s->A;
-    AA.bottomLeftCorner(nz, n) = f->K * s->C * s->A;
-    AA.bottomRightCorner(nz, nz) = f->Phi;
-    const Eigen::MatrixXd KC = f->K * s->C;
-    Eigen::MatrixXd N(n + nz, n + nz);
-    N.topLeftCorner(n, n) = s->Q;
-    N.topRightCorner(n, nz) = s->Q * KC.transpose();
-    N.bottomLeftCorner(nz, n) = KC * s->Q;
-    N.bottomRightCorner(nz, nz) = KC * s->Q * KC.transpose() + f->K * s->R * f->K.transpose();
-    Symmetrize(N);
-    sol = SolveDiscreteLyapunov(AA, N, lyapunov);
-    if (sol.summary.ok()) {
-      out.error_cov =
-          ErrorMoment(sol.X.topLeftCorner(n, n), sol.X.topRightCorner(n, nz), sol.X.bottomRightCorner(nz, nz), f->O);
-    }
-    out.method = StationaryMethod::kJoint;
-    sum.method = "joint Lyapunov equation";
-    sum.message = "rho(A) = " + std::to_string(rho_a) + ", rho(Phi) = " + std::to_string(rho_phi);
-  } else {
-    bool consistent =
-        nz == n && (f->O.size() == 0 || (f->O - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff() <= 1e-12);
-    Eigen::MatrixXd IKC = Eigen::MatrixXd::Identity(n, n);
-    if (consistent) {
-      IKC.noalias() -= f->K * s->C;
-      const Eigen::MatrixXd F = IKC * s->A;
-      const double scale = std::max(1.0, F.cwiseAbs().maxCoeff());
-      consistent = (F - f->Phi).cwiseAbs().maxCoeff() <= 1e-10 * scale;
-      if (consistent && rho_phi < 1.0) {
-        Eigen::MatrixXd N = IKC * s->Q * IKC.transpose() + f->K * s->R * f->K.transpose();
-        Symmetrize(N);
-        sol = SolveDiscreteLyapunov(F, N, lyapunov);
-        if (sol.summary.ok()) {
-          out.error_cov = std::move(sol.X);
-          Symmetrize(out.error_cov);
-        }
-        out.method = StationaryMethod::kErrorCoordinates;
-        sum.method = "error-coordinates Lyapunov equation";
-        sum.message = "consistent filter, rho((I - K C) A) = " + std::to_string(rho_phi) +
-                      " (true system rho(A) = " + std::to_string(rho_a) + ")";
-      }
-    }
-    if (sum.method.empty()) {
-      sum.termination = Termination::kUnstable;
-      sum.message = rho_phi >= 1.0
-                        ? "no stationary error: the filter is unstable (rho(Phi) = " + std::to_string(rho_phi) + ")"
-                        : "no stationary error: the true system is unstable (rho(A) = " + std::to_string(rho_a) +
-                              ") and the filter is not consistent with it (Phi != (I - K C) A), so the "
-                              "error grows with the state; use ExactPerformance over a finite horizon";
-      sum.seconds = SecondsSince(start);
-      return out;
-    }
-  }
-  sum.relative_residual = sol.summary.relative_residual;
-  if (!sol.summary.ok()) {
-    AdoptOutcome(sol.summary, &sum);
-  } else {
-    sum.termination = Termination::kConverged;
-    out.mse = out.error_cov.trace();
-    out.weighted_mse = WeightedTrace(options.weight, out.error_cov);
-  }
-  sum.seconds = SecondsSince(start);
-  return out;
 }
 
 MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
