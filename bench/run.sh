@@ -10,7 +10,7 @@ export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 # The kernel, chosen as the kfx CLI chooses it (bench/blas_kernel.py, docs/performance.md).
 here=$(cd "$(dirname "$0")" && pwd)
 eval "$(/usr/bin/python3 "$here/blas_kernel.py" "$build/bench/kfx_peers")"
-for b in bench_dgemm bench_kalman bench_riccati bench_block_diagonal; do
+for b in bench_dgemm bench_kalman bench_riccati bench_block_diagonal bench_block_diagonal_steady; do
   echo "running $b ..." >&2
   "$build/bench/$b" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
     --benchmark_out="$out/$b.json" --benchmark_out_format=json > /dev/null
@@ -61,4 +61,20 @@ if small and big:
 full, blk = bd.get(("FullStep", 2088)), bd.get(("BlockDiagonalStep", 2088))
 if full and blk:
     print(f"Full KF / block-diagonal at n = 2088: **{ms(full) / ms(blk):.0f}x** (target >= 10^4).")
+st = {}
+for b in load("bench_block_diagonal_steady"):
+    kind, n = re.match(r"BM_(\w+)/(\d+)", b["run_name"]).groups()
+    st[(kind, int(n))] = b
+print("\n| 004 steady state (c = 2, d = 1, r = 20) | n | triad | running step | its bound | running / bound | "
+      "steady step | its bound | steady / bound | running / steady | freeze (once) | x vs running |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+for n in sorted({n for (_, n) in st}):
+    tr, ru, ss = st.get(("Triad", n)), st.get(("RunningStep", n)), st.get(("SteadyStep", n))
+    if not (tr and ru and ss): continue
+    bw = tr["GBps"] * 1e9
+    t_ru, t_ss = ms(ru), ms(ss) / ss["group"]
+    b_ru, b_ss = ru["bytes"] / bw * 1e3, ss["bytes"] / ss["group"] / bw * 1e3
+    print(f"| | {n} | {tr['GBps']:.1f} GB/s | {t_ru:.4g} ms | {b_ru:.4g} ms | **{t_ru / b_ru:.2f}** (target <= 1.3) | "
+          f"{t_ss:.4g} ms | {b_ss:.4g} ms | {t_ss / b_ss:.2f} | **{t_ru / t_ss:.1f}x** (target >= 3) | "
+          f"{ss['freeze_s']:.3g} s | {ss['x_vs_running']:.1e} |")
 PY

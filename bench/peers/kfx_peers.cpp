@@ -15,6 +15,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -198,6 +199,45 @@ int Lyap(const std::string& dir, int n, int reps) {
   return 0;
 }
 
+// The same filter step as kfx's conventional form with its defaults (predict; Joseph update; (P + P^T)/2
+// after predict and update; the log-likelihood term from the Cholesky factor of S), written the way a
+// C++ user with one fixed model size would: Eigen::Matrix<double, N, N>, every size known at compile
+// time, no missing-value handling, no checks. The baseline of the "full-step kfx at n = 4" row.
+template <int N, int M>
+double FixedSizeFilter(const MatrixXd& A_, const MatrixXd& C_, const MatrixXd& Q_, const MatrixXd& R_,
+                       const Eigen::VectorXd& m0, const MatrixXd& P0, const kfx::TimeSeries& Y, kfx::TimeSeries* xs) {
+  using MatN = Eigen::Matrix<double, N, N>;
+  using MatMN = Eigen::Matrix<double, M, N>;
+  using MatNM = Eigen::Matrix<double, N, M>;
+  using MatM = Eigen::Matrix<double, M, M>;
+  const MatN A = A_, Q = Q_;
+  const MatMN C = C_;
+  const MatM R = R_;
+  Eigen::Matrix<double, N, 1> x = m0;
+  MatN P = P0;
+  const double log2pi = std::log(2.0 * 3.14159265358979323846);
+  double loglik = 0.0;
+  xs->resize(Y.rows() + 1, N);
+  xs->row(0) = x.transpose();
+  for (Eigen::Index k = 0; k < Y.rows(); ++k) {
+    x = A * x;
+    P = A * P * A.transpose() + Q;
+    P = 0.5 * (P + P.transpose()).eval();
+    const Eigen::Matrix<double, M, 1> nu = Y.row(k).transpose() - C * x;
+    const MatNM U = P * C.transpose();
+    const Eigen::LLT<MatM> S(C * U + R);
+    const MatNM K = S.solve(U.transpose()).transpose();
+    x += K * nu;
+    const MatN IKC = MatN::Identity() - K * C;
+    P = IKC * P * IKC.transpose() + K * R * K.transpose();
+    P = 0.5 * (P + P.transpose()).eval();
+    const Eigen::Matrix<double, M, 1> w = S.matrixL().solve(nu);
+    loglik += -0.5 * (w.squaredNorm() + 2.0 * S.matrixLLT().diagonal().array().log().sum() + M * log2pi);
+    xs->row(k + 1) = x.transpose();
+  }
+  return loglik;
+}
+
 int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
   // From here to the memory run (loading included), glibc's thresholds are fixed at 128 KiB (no
   // dynamic mmap threshold): every block over 128 KiB is mapped on allocation and unmapped on
@@ -242,6 +282,37 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
     run = kfx::RunFilter(model, Y, options);
     t_run.push_back(CpuSeconds() - t0);
   }
+  // The same run with every step a full covariance step (no steady-state switch): the honest
+  // comparison with peers that do not freeze the gain (numpy, FilterPy, the fixed-size loop below).
+  std::vector<double> t_full;
+  kfx::FilterRunOptions full_options = options;
+  full_options.steady_state_tolerance = 0.0;
+  kfx::FilterRun full_run;
+  // At n >= 1000 a 1000-step full run is minutes: a 100-step prefix, scaled by the caller.
+  const Eigen::Index full_steps = n >= 1000 ? std::min<Eigen::Index>(100, Y.rows()) : Y.rows();
+  const kfx::TimeSeries Y_full = Y.topRows(full_steps);
+  for (int i = 0; i < reps; ++i) {
+    full_run = kfx::FilterRun();
+    const double t0 = CpuSeconds();
+    full_run = kfx::RunFilter(model, Y_full, full_options);
+    t_full.push_back(CpuSeconds() - t0);
+  }
+  // At n = 4, m = 2: the fixed-size Eigen filter of the same step, timed here, and its distance from
+  // kfx's full-step run (relative, max over the means).
+  std::vector<double> t_fixed;
+  double fixed_diff = -1.0, fixed_loglik_diff = -1.0;
+  if (n == 4 && C.rows() == 2) {
+    const kfx::ModelStep& st = *model.step(1);
+    kfx::TimeSeries xs;
+    double ll = 0.0;
+    for (int i = 0; i < std::max(reps, 20); ++i) {
+      const double t0 = CpuSeconds();
+      ll = FixedSizeFilter<4, 2>(st.A, st.C, st.Q, st.R, m0, P0, Y, &xs);
+      t_fixed.push_back(CpuSeconds() - t0);
+    }
+    fixed_diff = (xs - full_run.x_filt).cwiseAbs().maxCoeff() / full_run.x_filt.cwiseAbs().maxCoeff();
+    fixed_loglik_diff = std::abs(ll - full_run.log_likelihood) / std::abs(full_run.log_likelihood);
+  }
   const double rss = PeakRssMb();
   // The covariance recursion alone (Predict + Update on P, no fast path): its rate in the flops it
   // needs. Needed per step (m = C.rows()): A P A^T with a symmetric result 3 n^3 (one GEMM, half of a
@@ -266,7 +337,10 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
             << ", \"cov_step_flops\": " << Num(flops) << ", \"peak_rss_mb\": " << Num(rss)
             << ", \"run_rss_growth_mb\": " << Num(run_growth) << ", \"run_outputs_mb\": " << Num(outputs_mb)
             << ", \"covariance_mb\": " << Num(covariance_mb) << ", \"loglik\": " << Num(run.log_likelihood)
-            << ", \"steps\": " << Y.rows() << ", \"steady_state_steps\": " << run.steady_state_steps << "}\n";
+            << ", \"steps\": " << Y.rows() << ", \"steady_state_steps\": " << run.steady_state_steps
+            << ", \"kfx_full\": " << JsonList(t_full) << ", \"kfx_full_steps_timed\": " << full_steps << ", \"eigen_fixed\": " << JsonList(t_fixed)
+            << ", \"eigen_fixed_x_diff\": " << Num(fixed_diff) << ", \"eigen_fixed_loglik_diff\": " << Num(fixed_loglik_diff)
+            << "}\n";
   return 0;
 }
 

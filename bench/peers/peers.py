@@ -6,7 +6,8 @@ Generates seeded systems (written as .npy for the C++ driver kfx_peers and as ra
 repetitions:
   DARE      kfx SolveFilterDare | SLICOT SB02OD (C++) | scipy solve_discrete_are | Octave dare
   Lyapunov  kfx SolveDiscreteLyapunov | SLICOT SB03MD (C++) | scipy solve_discrete_lyapunov
-  KF        kfx RunFilter (1000 steps) | a plain numpy predict/update loop | FilterPy (if importable)
+  KF        kfx RunFilter (1000 steps; with the steady-state switch and with every step full) | a plain numpy
+          predict/update loop | FilterPy (if importable) | at n = 4 a fixed-size Eigen filter (C++)
 checks every solution in this script (relative residual, stabilizing, symmetric PSD, difference
 from SLICOT's X; filters: difference from the numpy loop), and writes OUT/peers.json and
 OUT/peers.md (the table of docs/benchmarks.md).
@@ -317,6 +318,9 @@ def main():
                    run_rss_growth_mb=c["run_rss_growth_mb"], run_outputs_mb=c["run_outputs_mb"],
                    covariance_mb=c["covariance_mb"],
                    kfx_full_steps=KF_T - c["steady_state_steps"],
+                   kfx_every_step=[t * KF_T / c["kfx_full_steps_timed"] for t in c["kfx_full"]],
+                   kfx_every_step_timed=c["kfx_full_steps_timed"], eigen_fixed=c["eigen_fixed"],
+                   eigen_fixed_x_diff=c["eigen_fixed_x_diff"], eigen_fixed_loglik_diff=c["eigen_fixed_loglik_diff"],
                    checks=dict(x_diff_from_numpy=float(np.linalg.norm(xs_kfx[:steps_np + 1] - xs_np) / scale)))
         if not big:
             Pd = load(data, p + "Pdiag_kfx").ravel()
@@ -397,22 +401,37 @@ def table(r):
                  f"{ch['scipy']['residual']:.1e} | {ch['kfx']['diff_from_slicot']:.1e} | "
                  f"{'all ok' if allok else ', '.join(f'{a}: {ok(c)}' for a, c in ch.items())} |")
     L.append(f"\n### Kalman filter, {KF_T} steps, m = max(2, n/10)\n")
-    L.append("| n | m | kfx | kfx full steps | numpy loop | FilterPy | numpy / kfx | kfx covariance step | "
+    L.append("Two kfx columns: with the steady-state switch (FilterRunOptions::steady_state_tolerance = "
+             f"{KF_TOL:g}: the gain is frozen once P_k|k stops changing; 'full steps' says after how many) and with "
+             "every step a full covariance step (tolerance 0), which is what the numpy loop and FilterPy do.\n")
+    L.append("| n | m | kfx, switch | kfx full steps | kfx, every step full | numpy loop | FilterPy | numpy / kfx switch | "
+             "numpy / kfx every step | kfx covariance step | "
              "its GFLOP/s | fraction of DGEMM | kfx peak RSS | run's RSS growth - outputs | in covariances (n^2 doubles) | "
              "x vs numpy | checks |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for d in r["kf"]:
         k, nl = min(d["kfx"]), min(d["numpy"])
         fp = fmt_t(min(d["filterpy"])) if "filterpy" in d else "-"
         cs = min(d["kfx_cov_step"])
         gf = d["cov_step_flops"] / cs * 1e-9
         note = "" if d["numpy_steps_timed"] == KF_T else f" ({d['numpy_steps_timed']} steps x {KF_T // d['numpy_steps_timed']})"
-        L.append(f"| {d['n']} | {d['m']} | {fmt_t(k)} | {d['kfx_full_steps']} | {fmt_t(nl)}{note} | {fp} | **{nl / k:.1f}x** | {fmt_t(cs)} | "
+        ke = min(d["kfx_every_step"])
+        enote = "" if d["kfx_every_step_timed"] == KF_T else f" ({d['kfx_every_step_timed']} steps x {KF_T // d['kfx_every_step_timed']})"
+        L.append(f"| {d['n']} | {d['m']} | {fmt_t(k)} | {d['kfx_full_steps']} | {fmt_t(ke)}{enote} | {fmt_t(nl)}{note} | {fp} | "
+                 f"**{nl / k:.1f}x** | **{nl / ke:.1f}x** | {fmt_t(cs)} | "
                  f"{gf:.1f} | **{gf / dg:.0%}** | {d['peak_rss_mb']:.0f} MB | "
                  f"{d['run_rss_growth_mb'] - d['run_outputs_mb']:.1f} MB | "
                  f"**{(d['run_rss_growth_mb'] - d['run_outputs_mb']) / d['covariance_mb']:.2f}** | "
                  f"{d['checks']['x_diff_from_numpy']:.1e} | "
                  f"{'ok' if d['checks']['ok'] else '**FAIL**'} |")
+    for d in r["kf"]:
+        if d.get("eigen_fixed"):
+            ke, ef = min(d["kfx_every_step"]), min(d["eigen_fixed"])
+            L.append(f"\nAt n = {d['n']}, m = {d['m']}: a fixed-size Eigen filter (Eigen::Matrix<double, 4, 4>, the same "
+                     f"step: predict, Joseph update, symmetrization, log-likelihood; bench/peers/kfx_peers.cpp) takes "
+                     f"{fmt_t(ef)} for {KF_T} steps; kfx with every step full takes {fmt_t(ke)}: "
+                     f"**{ke / ef:.2f}x** the fixed-size time (target <= 2x). Means equal to "
+                     f"{d['eigen_fixed_x_diff']:.1e}, log-likelihood to {d['eigen_fixed_loglik_diff']:.1e} (relative).")
     return "\n".join(L) + "\n"
 
 

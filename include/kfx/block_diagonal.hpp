@@ -266,12 +266,22 @@ struct CoupledRun {
   TimeSeries x_filt;      ///< (T+1) x (n c), row 0 the prior mean
   TimeSeries coupling;    ///< T x r: mu_u,k (block-diagonal kinds; empty otherwise)
   Eigen::VectorXd trace;  ///< length T+1: trace of the filter's own covariance
+  int steady_state_steps = 0;  ///< steps done on the frozen gain (CoupledFilterOptions::steady_state_tolerance)
 };
 struct CoupledFilterOptions {
   /// Number of steps T: RunCoupledFilter runs min(T, rows of y) (negative: all rows of y);
   /// CoupledFilterAsLinearFilter runs T (negative: the system's horizon).
   int steps = -1;
   ProgressCallback progress{};
+  /// Steady state of the block-diagonal filter (RunCoupledFilter, kBlockDiagonal, time-invariant systems;
+  /// 0 = off, the default): the fixed point of eq. (19). Once a full step changes the covariance blocks by
+  /// at most this, relative in the Frobenius norm, or the changes reach their rounding floor (the switch
+  /// of RunFilter's steady-state fast path), the gain is frozen and later steps update only the estimate,
+  /// several steps at a time: the coupling enters through r-vectors, so E and Y are streamed once per
+  /// group of kSteadyStateGroup steps instead of G twice per step (docs/papers/004.md). A row of y with a
+  /// missing value ends the freeze. Range [0, 1e-2].
+  double steady_state_tolerance = 0.0;
+  static constexpr int kSteadyStateGroup = 8;
 };
 
 /// Runs a filter over measurements y ((T, n d), row k-1 = y_k). @throws kfx::Error on shapes.
@@ -291,6 +301,37 @@ struct CoupledTrajectory {
 };
 /// options.steps: T (negative: the system's horizon).
 CoupledTrajectory SimulateCoupled(const CoupledSystem& system, const SimulationOptions& options);
+
+// ---- Many independent small filters (U = 0) -------------------------------------------------------
+
+/// n independent time-invariant Kalman filters of c states and d measurements each: 004's subsystems
+/// without the coupling input (U = 0), the "one small filter per pixel" case. Each matrix holds one
+/// block for all filters or one block per filter, packed as above (filter i in columns [i b, (i+1) b)).
+struct ManyFilterModel {
+  Eigen::MatrixXd F;   ///< c x c or c x (n c): transitions.
+  Eigen::MatrixXd H;   ///< d x c or d x (n c): measurement matrices.
+  Eigen::MatrixXd Q;   ///< c x c or c x (n c): symmetric PSD process-noise covariances.
+  Eigen::MatrixXd R;   ///< d x d or d x (n d): symmetric PD measurement-noise covariances.
+  Eigen::MatrixXd x0;  ///< c x 1 or c x n: prior means (column i: filter i).
+  Eigen::MatrixXd P0;  ///< c x c or c x (n c): symmetric PSD prior covariances.
+  Eigen::Index c() const { return F.rows(); }
+  Eigen::Index d() const { return H.rows(); }
+};
+struct ManyFiltersRun {
+  TimeSeries x_filt;       ///< T x (n c): row k-1 holds x_{k|k} of every filter (filter i in [i c, (i+1) c))
+  Eigen::MatrixXd P_filt;  ///< c x (n c): the last P_{T|T} of every filter
+};
+/// Runs the n filters over y (T x (n d): row k-1 holds y_k of every filter, filter i in [i d, (i+1) d);
+/// NaN = missing, skipped as MaskMissingMeasurements skips it): x_{k|k-1} = F x, P_{k|k-1} = F P F^T + Q,
+/// S = H P H^T + R, K = P H^T S^{-1}, x_{k|k} = x_{k|k-1} + K (y_k - H x_{k|k-1}), P_{k|k} = P_{k|k-1} - K S K^T.
+/// The whole run of a chunk of filters stays in cache (fixed-shape vectorized kernels for c <= 4,
+/// d <= 2; any other c, d one filter at a time). x_filt (T x (n c), e.g. a numpy array) is written in place.
+/// @throws kfx::Error naming the argument (and filter) on bad shapes, non-finite values, Q or P0 not
+/// symmetric PSD, R not symmetric PD, or inf in y.
+void FilterMany(const ManyFilterModel& model, const Eigen::Ref<const TimeSeries>& y, Eigen::Ref<TimeSeries> x_filt,
+                Eigen::MatrixXd* P_filt);
+/// The same, allocating the outputs.
+ManyFiltersRun FilterMany(const ManyFilterModel& model, const TimeSeries& y);
 
 // ---- Steady state and analysis (time-invariant) ---------------------------------------------------
 

@@ -126,7 +126,9 @@ struct FilterRunOptions {
   /// Steady-state fast path (time-invariant models only; 0 = off, the default): once a full step
   /// changes P_{k|k} by at most this, relative in the Frobenius norm, the gain, S_k and the
   /// covariances are frozen and later steps update only the mean, O(n^2 + n m) instead of O(n^3).
-  /// A step with a missing measurement ends the freeze (the full recursion resumes). Range [0, 1e-2].
+  /// The switch also freezes at the rounding floor of the changes when that lies above the tolerance
+  /// (the StagnationDetector of the steady-state iterations). A step with a missing measurement ends the
+  /// freeze (the full recursion resumes). Range [0, 1e-2].
   double steady_state_tolerance = 0.0;
 };
 

@@ -1,6 +1,7 @@
 // kfx._core, paper 004: many subsystems coupled by a low-dimensional input: the coupled system, the
 // block-diagonal, banded and full filters, steady states and identical subsystems
 // (include/kfx/block_diagonal.hpp).
+#include <algorithm>
 #include <cstdint>
 #include <string>
 
@@ -13,6 +14,69 @@ namespace kfx::python {
 namespace {
 
 CoupledFilterKind ParseKind(const std::string& s) { return ParseEnum<CoupledFilterKind>("kind", s); }
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// A (rows, cols) array (one block for all filters) or an (n, rows, cols) one (a block per filter), packed
+// rows x (n cols) as in include/kfx/block_diagonal.hpp.
+Eigen::MatrixXd PackBlocks(const char* name, const Array& a, Eigen::Index n) {
+  if (a.ndim() == 2) {
+    Eigen::MatrixXd m(a.shape(0), a.shape(1));
+    for (Eigen::Index p = 0; p < m.rows(); ++p)
+      for (Eigen::Index q = 0; q < m.cols(); ++q) m(p, q) = a.at(p, q);
+    return m;
+  }
+  if (a.ndim() != 3 || a.shape(0) != n) {
+    throw Error(std::string(name) + ": expected a (rows, cols) array for all filters or (" + std::to_string(n) +
+                ", rows, cols), one per filter; got " + std::to_string(a.ndim()) + " dimensions" +
+                (a.ndim() == 3 ? " with " + std::to_string(a.shape(0)) + " blocks" : ""));
+  }
+  const Eigen::Index rows = a.shape(1), cols = a.shape(2);
+  Eigen::MatrixXd m(rows, n * cols);
+  const double* src = a.data();
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index p = 0; p < rows; ++p)
+      for (Eigen::Index q = 0; q < cols; ++q) m(p, i * cols + q) = src[(i * rows + p) * cols + q];
+  return m;
+}
+
+// kfx.filter_many: numpy in, numpy out; the estimates are written straight into the returned array.
+py::tuple FilterManyNumpy(const Array& F, const Array& H, const Array& Q, const Array& R, const Array& x0,
+                          const Array& P0, const Array& zs) {
+  if (zs.ndim() != 2 && zs.ndim() != 3) {
+    throw Error("zs: expected (T, n) or (T, n, d), got " + std::to_string(zs.ndim()) + " dimensions");
+  }
+  const Eigen::Index T = zs.shape(0), n = zs.shape(1), d = zs.ndim() == 3 ? zs.shape(2) : 1;
+  ManyFilterModel model;
+  model.F = PackBlocks("F", F, n);
+  model.H = PackBlocks("H", H, n);
+  model.Q = PackBlocks("Q", Q, n);
+  model.R = PackBlocks("R", R, n);
+  model.P0 = PackBlocks("P0", P0, n);
+  const Eigen::Index c = model.F.rows();
+  if (model.H.rows() != d) {
+    throw Error("zs: expected " + std::to_string(model.H.rows()) + " measurements per filter (the rows of H), got " +
+                std::to_string(d));
+  }
+  if (x0.ndim() == 1) {
+    model.x0 = Eigen::Map<const Eigen::VectorXd>(x0.data(), x0.shape(0));
+  } else if (x0.ndim() == 2 && x0.shape(0) == n) {
+    model.x0 = Eigen::Map<const Eigen::MatrixXd>(x0.data(), x0.shape(1), n);  // (n, c) C order = c x n
+  } else {
+    throw Error("x0: expected (c,) for all filters or (" + std::to_string(n) + ", c)");
+  }
+  py::array_t<double> xs({T, n, c});
+  py::array_t<double> P({n, c, c});
+  const Eigen::Map<const TimeSeries> y(zs.data(), T, n * d);
+  Eigen::Map<TimeSeries> x(xs.mutable_data(), T, n * c);
+  Eigen::MatrixXd P_last;
+  {
+    py::gil_scoped_release release;
+    FilterMany(model, y, x, &P_last);
+  }
+  std::copy(P_last.data(), P_last.data() + P_last.size(), P.mutable_data());  // symmetric blocks: same layout
+  return py::make_tuple(xs, P);
+}
 
 }  // namespace
 
@@ -139,6 +203,12 @@ void BindBlockDiagonal(py::module_& m) {
       py::arg("system"), py::arg("n"),
       "004 Sec. 3.1 for n identical subsystems, exactly, in O(c^3) per iteration for any n.");
   m.def("unknown_input_spectral_radius", &UnknownInputSpectralRadius, py::arg("system"));
+  m.def("filter_many", &FilterManyNumpy, py::arg("F"), py::arg("H"), py::arg("Q"), py::arg("R"), py::arg("x0"),
+        py::arg("P0"), py::arg("zs"),
+        "n independent Kalman filters (004's subsystems with U = 0; docs/python.md). F (c, c) or (n, c, c), H (d, c) "
+        "or (n, d, c), Q (c, c) or (n, c, c), R (d, d) or (n, d, d), x0 (c,) or (n, c), P0 (c, c) or (n, c, c): "
+        "one for all filters or one per filter; zs (T, n) (d = 1) or (T, n, d), NaN = missing. Returns (xs, P): "
+        "xs (T, n, c) the filtered means x_k|k, P (n, c, c) the last P_T|T.");
 }
 
 }  // namespace kfx::python

@@ -62,4 +62,24 @@ class StagnationDetector {
   double floor_ = 0.0;
 };
 
+/// The steady-state switch of the running filters (RunFilter's fast path, RunCoupledFilter's steady
+/// block-diagonal filter): after each full step, Observe(|P_k - P_{k-1}|_F, |P_k|_F); true once the
+/// relative change is at most the tolerance, or once the changes have reached their rounding floor
+/// (a tolerance below the floor would never be met). Reset() after a step that may not switch (a
+/// missing measurement): the changes before it say nothing about the recursion after it.
+class SteadyStateSwitch {
+ public:
+  explicit SteadyStateSwitch(double tolerance) : tolerance_(tolerance) {}
+  bool Observe(double change, double size) {
+    const double relative = size > 0 ? change / size : change;
+    if (relative <= tolerance_) return true;
+    return floor_.Observe(relative);
+  }
+  void Reset() { floor_ = StagnationDetector(); }
+
+ private:
+  double tolerance_;
+  StagnationDetector floor_;
+};
+
 }  // namespace kfx::detail

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "base/stagnation.hpp"
 #include "filter/conventional_form.hpp"
 #include "filter/factored_forms.hpp"
 #include "filter/filter_health_internal.hpp"
@@ -71,6 +72,7 @@ FilterRun RunLoop(const Model& model, const TimeSeries& y, const FilterRunOption
   const double tol = options.steady_state_tolerance;
   const bool fast = Form::kSteadyState && tol > 0.0 && model.time_invariant();
   bool frozen = false;
+  SteadyStateSwitch steady(tol);  // the same switch as RunCoupledFilter's (base/stagnation.hpp)
   typename Form::Matrix P_prev, P_pred_ss;
   for (int k = 1; k <= T; ++k) {
     StepPtr s = model.step(k);
@@ -128,8 +130,10 @@ FilterRun RunLoop(const Model& model, const TimeSeries& y, const FilterRunOption
     }
     if (options.monitor_health) monitor.Observe(k, P, form.innovation(), form.innovation_cov());
     if constexpr (Form::kSteadyState) {
-      if (fast && mo == m && (P - P_prev).norm() <= tol * P.norm()) {
+      if (fast && mo != m) steady.Reset();
+      if (fast && mo == m && steady.Observe((P - P_prev).norm(), P.norm())) {
         frozen = true;
+        steady.Reset();
         form.Freeze();
       }
     }

@@ -5,6 +5,7 @@
 // range-based passes that the distributed filter calls are declared in block_diagonal_internal.hpp.)
 #include <Eigen/Dense>
 #include <string>
+#include <vector>
 
 #include "kfx/block_diagonal.hpp"
 #include "methods/block_diagonal/block_diagonal_internal.hpp"
@@ -60,5 +61,25 @@ struct EstimateFold {
 // been checked by the caller.
 void BlockDiagonalUpdate(const CoupledStep& s, const Eigen::MatrixXd& Pp, BlockDiagonalCovarianceStep& out,
                          bool store_gain, const EstimateFold* est);
+
+/// The block-diagonal filter with its gain frozen at the fixed point reached from P_filt (RunCoupledFilter's
+/// steady state), run `group` steps at a time (steady_state_run.cpp derives the split).
+class FrozenBlockDiagonal {
+ public:
+  /// The gain of the step from P_filt (BlockDiagonalCovarianceUpdate), Fc_i = (I - J_i H_i) F_i and the
+  /// r x r matrices M_m, m < group - 1: O(n c r^2 group) once.
+  FrozenBlockDiagonal(const CoupledStep& s, const Eigen::MatrixXd& P_filt, int group);
+  /// Steps k0 + 1 .. k0 + L (1 <= L <= group): x_filt row k0 holds x_{k0} on entry; rows k0 + 1 .. k0 + L
+  /// of x_filt and rows k0 .. k0 + L - 1 of coupling (mu_u) are written from rows k0 .. k0 + L - 1 of y,
+  /// which must be finite.
+  void Run(const TimeSeries& y, int k0, int L, TimeSeries* x_filt, TimeSeries* coupling) const;
+  const Eigen::MatrixXd& coupling_cov() const { return gain_.C1; }
+
+ private:
+  int group_;
+  BlockDiagonalGain gain_;  // J, E^T, C_1, Y^T
+  Eigen::MatrixXd F_, H_, Fc_;
+  std::vector<Eigen::MatrixXd> M_;
+};
 
 }  // namespace kfx::detail

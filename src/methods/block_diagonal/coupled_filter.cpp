@@ -5,10 +5,12 @@
 // full steps in reference_steps.cpp.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "base/stagnation.hpp"
 #include "kfx/block_diagonal.hpp"
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
@@ -158,6 +160,10 @@ CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind,
   if (y.cols() != system.meas_dim()) {
     throw Error("y: expected " + std::to_string(system.meas_dim()) + " columns (n d), got " + std::to_string(y.cols()));
   }
+  const double tol = options.steady_state_tolerance;
+  if (!(tol >= 0.0 && tol <= 1e-2)) {
+    throw Error("options.steady_state_tolerance: expected a value in [0, 1e-2], got " + std::to_string(tol));
+  }
   const int rows = static_cast<int>(y.rows());
   const int T = system.ResolveSteps(options.steps < 0 ? rows : std::min(options.steps, rows));
   CoupledFilter filter(kind, system.m0(), system.P0_blocks());
@@ -174,12 +180,44 @@ CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind,
     return t;
   };
   run.trace(0) = trace(filter.P());
-  for (int k = 1; k <= T; ++k) {
+  // The steady state (options.steady_state_tolerance): the switch of RunFilter's fast path, then groups
+  // of steps on the frozen gain (steady_state_run.cpp) until a row of y with a missing value.
+  const bool steady = tol > 0 && kind == CoupledFilterKind::kBlockDiagonal && system.time_invariant();
+  detail::SteadyStateSwitch steady_switch(tol);
+  std::unique_ptr<detail::FrozenBlockDiagonal> frozen;
+  MatrixXd P_prev;
+  for (int k = 1; k <= T;) {
+    if (frozen) {
+      int L = 0;
+      while (L < CoupledFilterOptions::kSteadyStateGroup && k + L <= T && y.row(k + L - 1).allFinite()) ++L;
+      if (L == 0) {  // a missing value (or inf, which Step rejects): the running filter resumes from here
+        filter = CoupledFilter(kind, run.x_filt.row(k - 1).transpose(), filter.P());
+        frozen.reset();
+        continue;
+      }
+      frozen->Run(y, k - 1, L, &run.x_filt, &run.coupling);
+      run.trace.segment(k, L).setConstant(run.trace(k - 1));
+      run.steady_state_steps += L;
+      k += L;
+      if (options.progress) options.progress(k - 1, T);
+      continue;
+    }
+    if (steady) P_prev = filter.P();
     filter.Step(*system.step(k), y.row(k - 1).transpose());
     run.x_filt.row(k) = filter.x().transpose();
     if (coupling) run.coupling.row(k - 1) = filter.coupling_mean().transpose();
     run.trace(k) = trace(filter.P());
+    if (steady) {
+      if (!y.row(k - 1).allFinite()) {
+        steady_switch.Reset();
+      } else if (steady_switch.Observe((filter.P() - P_prev).norm(), filter.P().norm())) {
+        frozen = std::make_unique<detail::FrozenBlockDiagonal>(*system.step(k), filter.P(),
+                                                               CoupledFilterOptions::kSteadyStateGroup);
+        steady_switch.Reset();
+      }
+    }
     if (options.progress) options.progress(k, T);
+    ++k;
   }
   return run;
 }
