@@ -59,7 +59,7 @@ import kfx
 d = json.load(open(sys.argv[1]))
 model = kfx.Model(A=d["A"], C=d["C"], Q=d["Q"], R=d["R"], m0=d["m0"], P0=d["P0"])
 x, y = kfx.simulate(model, steps=200, seed=7)
-run = kfx.run_filter(model, y)
+run = kfx.run_filter(model, y, store_covariances="full")  # every P_{k|k}: the smoother needs them
 sm = kfx.rts_smooth(model, run)
 f = kfx.kalman_as_linear_filter(model, 200)
 print(f"kfx {kfx.__version__}: log-likelihood {run.log_likelihood:.6f} (as kfx filter above)")

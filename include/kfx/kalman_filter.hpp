@@ -164,11 +164,15 @@ struct SmootherRun {
   std::vector<Eigen::MatrixXd> P;  ///< T+1 matrices P_{k|T}
 };
 
+struct SmootherOptions {
+  ProgressCallback progress{};  ///< (T - k, T) after the smoothed estimate of step k
+};
+
 /// Rauch-Tung-Striebel smoother: G_k = P_{k|k} A_{k+1}^T P_{k+1|k}^{-1} (by a Cholesky solve; a
 /// complete orthogonal decomposition, i.e. the pseudo-inverse, when P_{k+1|k} is singular),
 /// x_{k|T} = x_{k|k} + G_k (x_{k+1|T} - x_{k+1|k}), P_{k|T} = P_{k|k} + G_k (P_{k+1|T} - P_{k+1|k}) G_k^T.
 /// @throws kfx::Error if the run did not store covariances or does not match the model.
-SmootherRun RtsSmooth(const Model& model, const FilterRun& run);
+SmootherRun RtsSmooth(const Model& model, const FilterRun& run, const SmootherOptions& options = {});
 
 /// The offline part of the Kalman filter: the gain and covariance schedule for k = 1..T (all
 /// measurements present). Riccati difference equation P_{k|k-1} = A_k P_{k-1|k-1} A_k^T + Q_k.

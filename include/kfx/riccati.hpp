@@ -12,6 +12,7 @@
 #include <limits>
 #include <string>
 
+#include "kfx/progress.hpp"
 #include "kfx/summary.hpp"
 
 namespace kfx {
@@ -47,6 +48,8 @@ struct DareOptions {
   /// stopping once the relative residual is <= 32 eps = 7.1e-15),
   /// then one Newton (Hewer) step via a Stein equation if the residual is still > 1e-13.
   bool refine = true;
+  /// Doubling: (k, max_iterations) after doubling step k (the Schur method is one LAPACK call).
+  ProgressCallback progress{};
   bool IsValid(std::string* error) const;
 };
 

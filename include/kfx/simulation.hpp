@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kfx/model.hpp"
+#include "kfx/progress.hpp"
 
 namespace kfx {
 
@@ -40,8 +41,9 @@ struct Trajectory {
 };
 
 struct SimulationOptions {
-  int steps = -1;          ///< number of steps T (negative: the model's horizon)
-  std::uint64_t seed = 1;  ///< the generator's seed (not used by the overload that takes an Rng)
+  int steps = -1;               ///< number of steps T (negative: the model's horizon)
+  std::uint64_t seed = 1;       ///< the generator's seed (not used by the overload that takes an Rng)
+  ProgressCallback progress{};  ///< (k, T) after step k of one trajectory
 };
 
 /// Draws x_0 ~ N(m0, P0) and then x_k, y_k for k = 1..T.

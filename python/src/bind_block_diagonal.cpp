@@ -8,6 +8,7 @@
 #include "bindings.hpp"
 #include "kfx/block_diagonal.hpp"
 #include "kfx/enum_text.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 
@@ -122,27 +123,37 @@ void BindBlockDiagonal(py::module_& m) {
       .def_readonly("trace", &CoupledRun::trace, "trace of the filter's own covariance, k = 0..T");
   m.def(
       "run_coupled_filter",
-      [](const CoupledSystem& sys, const std::string& kind, const TimeSeries& y) {
+      [](const CoupledSystem& sys, const std::string& kind, const TimeSeries& y, const py::object& progress) {
         const CoupledFilterKind k = ParseKind(kind);
-        py::gil_scoped_release release;
-        return RunCoupledFilter(sys, k, y);
+        LongCall call(progress);
+        CoupledFilterOptions o;
+        o.progress = call.callback();
+        return call.Run([&] { return RunCoupledFilter(sys, k, y, o); });
       },
-      py::arg("system"), py::arg("kind"), py::arg("y"),
-      "Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), "
-      "'block-diagonal-naive', 'banded', 'full'.");
+      py::arg("system"), py::arg("kind"), py::arg("y"), py::arg("progress") = py::none(),
+      (std::string("Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), "
+                   "'block-diagonal-naive', 'banded', 'full'.") +
+       kProgressDoc)
+          .c_str());
   m.def(
       "coupled_filter_as_linear_filter",
       [](const CoupledSystem& sys, const std::string& kind, int steps) {
         CoupledFilterOptions o;
         o.steps = steps;
-        return CoupledFilterAsLinearFilter(sys, ParseKind(kind), o);
+        const CoupledFilterKind k = ParseKind(kind);
+        py::gil_scoped_release release;
+        return CoupledFilterAsLinearFilter(sys, k, o);
       },
       py::arg("system"), py::arg("kind"), py::arg("steps"),
       "The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance.");
   m.def(
       "simulate_coupled",
       [](const CoupledSystem& sys, int steps, std::uint64_t seed) {
-        CoupledTrajectory t = SimulateCoupled(sys, SimulationOptions{steps, seed});
+        CoupledTrajectory t;
+        {
+          py::gil_scoped_release release;
+          t = SimulateCoupled(sys, SimulationOptions{steps, seed});
+        }
         return py::make_tuple(t.x, t.y, t.u);
       },
       py::arg("system"), py::arg("steps"), py::arg("seed") = 1, "Returns (x (T+1, n c), y (T, n d), u (T, r)).");
@@ -157,6 +168,7 @@ void BindBlockDiagonal(py::module_& m) {
         SteadyStateOptions o;
         o.max_iterations = max_iterations;
         o.tolerance = tolerance;
+        py::gil_scoped_release release;
         return SolveBlockDiagonalSteadyState(s, o);
       },
       py::arg("step"), py::arg("max_iterations") = 100000, py::arg("tolerance") = 1e-13);
@@ -200,7 +212,7 @@ void BindBlockDiagonal(py::module_& m) {
   m.def(
       "analyze_identical_subsystems",
       [](const IdenticalSubsystems& sys, Eigen::Index n) { return AnalyzeIdenticalSubsystems(sys, n); },
-      py::arg("system"), py::arg("n"),
+      py::arg("system"), py::arg("n"), py::call_guard<py::gil_scoped_release>(),
       "004 Sec. 3.1 for n identical subsystems, exactly, in O(c^3) per iteration for any n.");
   m.def("unknown_input_spectral_radius", &UnknownInputSpectralRadius, py::arg("system"));
   m.def("filter_many", &FilterManyNumpy, py::arg("F"), py::arg("H"), py::arg("Q"), py::arg("R"), py::arg("x0"),

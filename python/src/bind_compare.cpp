@@ -11,6 +11,7 @@
 #include "kfx/compare.hpp"
 #include "kfx/method_spec.hpp"
 #include "kfx/model.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 
@@ -57,7 +58,7 @@ void BindCompare(py::module_& m) {
   m.def(
       "compare",
       [](const py::object& model, const std::vector<std::string>& methods, int steps, bool stationary,
-         std::optional<Eigen::MatrixXd> weight, int monte_carlo, std::uint64_t seed) {
+         std::optional<Eigen::MatrixXd> weight, int monte_carlo, std::uint64_t seed, const py::object& progress) {
         std::vector<MethodSpec> specs;
         for (const std::string& t : methods) specs.push_back(ParseMethodSpec(t));
         const ComparisonModel truth = py::isinstance<py::str>(model)
@@ -69,11 +70,9 @@ void BindCompare(py::module_& m) {
         o.weight = OrEmpty(weight);
         o.monte_carlo = monte_carlo;
         o.seed = seed;
-        Comparison c;
-        {
-          py::gil_scoped_release release;
-          c = Compare(truth, specs, o);
-        }
+        LongCall call(progress);
+        o.progress = call.callback();
+        const Comparison c = call.Run([&] { return Compare(truth, specs, o); });
         py::list rows;
         for (const CompareRow& r : c.rows) {
           py::dict d = RowDict(r, stationary);
@@ -84,12 +83,14 @@ void BindCompare(py::module_& m) {
         return rows;
       },
       py::arg("model"), py::arg("methods"), py::arg("steps") = 100, py::arg("stationary") = false,
-      py::arg("weight") = py::none(), py::arg("monte_carlo") = 0, py::arg("seed") = 1,
+      py::arg("weight") = py::none(), py::arg("monte_carlo") = 0, py::arg("seed") = 1, py::arg("progress") = py::none(),
       "The rows of `kfx compare` (docs/cli.md): model is a kfx.Model or a model-file path (a coupled model "
       "file for blockdiag/banded); methods are specifications. Returns one dict per method "
       "(pandas.DataFrame(rows) takes the list), each with the optimal Kalman filter's kalman_mse and "
       "kalman_stationary_mse; 'headline' is the stationary MSE with stationary=True, else the MSE at T. "
-      "kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures.");
+      "kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures. progress: None or "
+      "progress(methods done, methods), as every long call takes it (docs/python.md); Ctrl-C stops the "
+      "comparison between methods' steps with KeyboardInterrupt.");
 }
 
 }  // namespace kfx::python

@@ -7,6 +7,7 @@
 #include "bindings.hpp"
 #include "kfx/continuous.hpp"
 #include "kfx/sampling_convergence.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 
@@ -47,15 +48,17 @@ void BindContinuous(py::module_& m) {
   m.def(
       "sampled_filter_covariance",
       [](const ContinuousModel& cm, double T, int n) { return SampledFilterCovariance(cm, T, n); }, py::arg("model"),
-      py::arg("T"), py::arg("n"), "P_{T,n}: the sampled filter's error covariance of z(T).");
+      py::arg("T"), py::arg("n"), py::call_guard<py::gil_scoped_release>(),
+      "P_{T,n}: the sampled filter's error covariance of z(T).");
   m.def("kalman_bucy_covariance", &KalmanBucyCovariance, py::arg("model"), py::arg("T"),
+        py::call_guard<py::gil_scoped_release>(),
         "P_c(T) of the Kalman-Bucy filter (Hamiltonian exponential and doubling).");
   py::class_<CareSolution>(m, "CareSolution")
       .def_readonly("P", &CareSolution::P)
       .def_readonly("closed_loop_max_real", &CareSolution::closed_loop_max_real)
       .def_readonly("refinement_steps", &CareSolution::refinement_steps)
       .def_readonly("summary", &CareSolution::summary);
-  m.def("solve_filter_care", &SolveFilterCare, py::arg("model"),
+  m.def("solve_filter_care", &SolveFilterCare, py::arg("model"), py::call_guard<py::gil_scoped_release>(),
         "CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}.");
   m.def(
       "simulate_continuous",
@@ -92,16 +95,20 @@ void BindContinuous(py::module_& m) {
       .def_readonly("rate", &ConvergenceStudy::rate);
   m.def(
       "study_convergence",
-      [](const ContinuousModel& cm, double T, std::vector<int> n_values, int rate_min_n) {
+      [](const ContinuousModel& cm, double T, std::vector<int> n_values, int rate_min_n, const py::object& progress) {
         ConvergenceStudyOptions o;
         o.n_values = std::move(n_values);
         o.rate_min_n = rate_min_n;
-        py::gil_scoped_release release;
-        return StudyConvergence(cm, T, o);
+        LongCall call(progress);
+        o.progress = call.callback();
+        return call.Run([&] { return StudyConvergence(cm, T, o); });
       },
       py::arg("model"), py::arg("T"), py::arg("n_values") = std::vector<int>{1, 2, 4, 8, 16, 32, 64, 128, 256},
-      py::arg("rate_min_n") = 16,
-      "003: err(n) = tr P_{T,n} - tr P_c(T) for each n, the bounds of Theorems 1-4 and the fitted rate.");
+      py::arg("rate_min_n") = 16, py::arg("progress") = py::none(),
+      (std::string("003: err(n) = tr P_{T,n} - tr P_c(T) for each n, the bounds of Theorems 1-4 and the fitted "
+                   "rate; progress counts the values of n.") +
+       kProgressDoc)
+          .c_str());
   m.def("wave_modal_model", &WaveModalModel, py::arg("sigma2"), py::arg("d"), py::arg("R"),
         "003 Example 1: the wave equation in dyadic modes.");
   m.def("log_log_slope", &LogLogSlope, py::arg("x"), py::arg("y"), py::arg("x_min"));

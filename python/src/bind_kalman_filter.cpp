@@ -5,15 +5,66 @@
 
 #include "bindings.hpp"
 #include "kfx/enum_text.hpp"
+#include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
 #include "kfx/validation.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 namespace {
 
 CovarianceUpdateForm ParseUpdateForm(const std::string& s) { return ParseEnum<CovarianceUpdateForm>("update_form", s); }
+
+// The results that hold a matrix per step keep them as numpy arrays built once (TakeStack): a property
+// returns the same read-only array on every access, with no copy.
+struct PyFilterRun : FilterRun {
+  py::object P_filt_stack = py::none(), P_pred_stack = py::none();  // (T+1, n, n), or None: not stored
+};
+struct PySmootherRun : SmootherRun {
+  py::object P_stack = py::none();
+};
+struct PyKalmanSchedule {
+  py::object filter_gain, P_pred, P_filt;
+};
+
+// run_filter's store_covariances: 'diag' (default) or 'full'; True / False as before ('full' / 'diag').
+bool StoreFullCovariances(const py::object& store) {
+  if (py::isinstance<py::bool_>(store)) return store.cast<bool>();
+  if (py::isinstance<py::str>(store)) {
+    const std::string s = store.cast<std::string>();
+    if (s == "full") return true;
+    if (s == "diag") return false;
+    throw Error("store_covariances: expected 'diag' or 'full', got '" + s + "'");
+  }
+  throw Error("store_covariances: expected 'diag' or 'full', got " + py::str(py::type::of(store)).cast<std::string>());
+}
+
+py::object StoredOrRaise(const py::object& stack, const char* name) {
+  if (stack.is_none()) {
+    throw Error(std::string(name) + ": not stored (only the diagonals are, " + name +
+                "_diag); run kfx.run_filter(..., store_covariances='full') to keep every covariance");
+  }
+  return stack;
+}
+
+SmootherRun SmoothStored(const Model& model, const PyFilterRun& stored, const py::object& progress) {
+  if (stored.P_filt_stack.is_none() || stored.P_pred_stack.is_none()) {
+    throw Error("run: expected stored covariances: kfx.run_filter(..., store_covariances='full')");
+  }
+  FilterRun run = stored;  // the means and diagonals; the covariances from the stored stacks
+  run.P_filt = Unstack(stored.P_filt_stack, "run.P_filt");
+  run.P_pred = Unstack(stored.P_pred_stack, "run.P_pred");
+  LongCall call(progress);
+  SmootherOptions o;
+  o.progress = call.callback();
+  return call.Run([&] {
+    SmootherRun sm = RtsSmooth(model, run, o);
+    run = FilterRun();  // freed before the smoothed covariances are stacked
+    return sm;
+  });
+}
 
 }  // namespace
 
@@ -69,15 +120,22 @@ void BindKalmanFilter(py::module_& m) {
       .def_readonly("nis_upper", &FilterHealth::nis_upper)
       .def_readonly("nis_consistent", &FilterHealth::nis_consistent)
       .def_property_readonly("healthy", &FilterHealth::healthy);
-  py::class_<FilterRun>(m, "FilterRun", "A whole-sequence filter run (kfx.run_filter).")
+  py::class_<PyFilterRun>(m, "FilterRun",
+                          "A whole-sequence filter run (kfx.run_filter). Every array is a read-only view, the same "
+                          "object on every access.")
       .def_readonly("x_filt", &FilterRun::x_filt, "(T+1, n): row k = x_{k|k}; row 0 = m0")
       .def_readonly("x_pred", &FilterRun::x_pred, "(T+1, n): row k = x_{k|k-1}; row 0 = m0")
-      .def_readonly("P_filt_diag", &FilterRun::P_filt_diag)
-      .def_readonly("P_pred_diag", &FilterRun::P_pred_diag)
+      .def_readonly("P_filt_diag", &FilterRun::P_filt_diag, "(T+1, n): diagonals of P_{k|k}; row 0 = diag P0")
+      .def_readonly("P_pred_diag", &FilterRun::P_pred_diag, "(T+1, n): diagonals of P_{k|k-1}; row 0 = diag P0")
       .def_property_readonly(
-          "P_filt", [](const FilterRun& r) { return Stack(r.P_filt); }, "(T+1, n, n) if stored")
+          "P_filt", [](const PyFilterRun& r) { return StoredOrRaise(r.P_filt_stack, "P_filt"); },
+          "(T+1, n, n): P_{k|k}, with store_covariances='full' (else raises kfx.Error)")
       .def_property_readonly(
-          "P_pred", [](const FilterRun& r) { return Stack(r.P_pred); }, "(T+1, n, n) if stored; [0] = P0")
+          "P_pred", [](const PyFilterRun& r) { return StoredOrRaise(r.P_pred_stack, "P_pred"); },
+          "(T+1, n, n): P_{k|k-1}, [0] = P0, with store_covariances='full' (else raises kfx.Error)")
+      .def_property_readonly(
+          "covariances_stored", [](const PyFilterRun& r) { return !r.P_filt_stack.is_none(); },
+          "True when run with store_covariances='full'")
       .def_readonly("innovations", &FilterRun::innovations, "(T, m), NaN where missing")
       .def_readonly("log_likelihood_terms", &FilterRun::log_likelihood_terms)
       .def_readonly("log_likelihood", &FilterRun::log_likelihood)
@@ -87,50 +145,83 @@ void BindKalmanFilter(py::module_& m) {
                     "the warning issued for this run ('' when healthy or not monitored)");
   m.def(
       "run_filter",
-      [](const Model& model, const TimeSeries& y, bool store_covariances, const std::string& form,
-         const std::string& filter_form, bool monitor_health) {
+      [](const Model& model, const TimeSeries& y, const py::object& store_covariances, const std::string& form,
+         const std::string& filter_form, bool monitor_health, const py::object& progress) {
         FilterRunOptions o;
-        o.store_covariances = store_covariances;
+        o.store_covariances = StoreFullCovariances(store_covariances);
         o.filter.update_form = ParseUpdateForm(form);
         o.filter.form = ParseEnum<FilterForm>("form", filter_form);
         // The cheap health checks by default (docs/robustness.md, class 8), with a RuntimeWarning.
         o.monitor_health = monitor_health;
         o.monitor_eigenvalues = false;
-        FilterRun run = RunFilter(model, y, o);
+        LongCall call(progress);
+        o.progress = call.callback();
+        PyFilterRun run;
+        static_cast<FilterRun&>(run) = call.Run([&] { return RunFilter(model, y, o); });
+        if (o.store_covariances) {
+          run.P_filt_stack = TakeStack(&run.P_filt);
+          run.P_pred_stack = TakeStack(&run.P_pred);
+        }
         if (!run.health_warning.empty() &&
             PyErr_WarnEx(PyExc_RuntimeWarning, ("kfx.run_filter: " + run.health_warning).c_str(), 1) != 0) {
           throw py::error_already_set();
         }
         return run;
       },
-      py::arg("model"), py::arg("y"), py::arg("store_covariances") = true, py::arg("update_form") = "joseph",
-      py::arg("form") = "conventional", py::arg("monitor_health") = true,
-      "Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting "
-      "from the prior (m0, P0) at k = 0. form: 'conventional', 'sqrt', 'ud' or 'information'. With "
-      "monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's "
-      ".health, and a RuntimeWarning naming the form to use when the covariances went wrong.");
-  py::class_<SmootherRun>(m, "SmootherRun")
+      py::arg("model"), py::arg("y"), py::arg("store_covariances") = "diag", py::arg("update_form") = "joseph",
+      py::arg("form") = "conventional", py::arg("monitor_health") = true, py::arg("progress") = py::none(),
+      (std::string("Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, "
+                   "starting from the prior (m0, P0) at k = 0. store_covariances: 'diag' (default: the diagonals "
+                   "P_filt_diag, P_pred_diag, (T+1) n numbers) or 'full' (also every P_{k|k}, P_{k|k-1} as "
+                   "P_filt, P_pred: 2 (T+1) n^2 numbers; rts_smooth needs them). form: 'conventional', 'sqrt', "
+                   "'ud' or 'information'. With monitor_health (default) the cheap health checks run (Cholesky "
+                   "of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use "
+                   "when the covariances went wrong.") +
+       kProgressDoc)
+          .c_str());
+  py::class_<PySmootherRun>(m, "SmootherRun")
       .def_readonly("x", &SmootherRun::x, "(T+1, n): row k = x_{k|T}")
-      .def_readonly("P_diag", &SmootherRun::P_diag)
-      .def_property_readonly(
-          "P", [](const SmootherRun& r) { return Stack(r.P); }, "(T+1, n, n)");
-  m.def("rts_smooth", &RtsSmooth, py::arg("model"), py::arg("run"),
-        "Rauch-Tung-Striebel smoother of a run_filter result (needs store_covariances=True).");
+      .def_readonly("P_diag", &SmootherRun::P_diag, "(T+1, n): diagonals of P_{k|T}")
+      .def_readonly("P", &PySmootherRun::P_stack, "(T+1, n, n): P_{k|T} (read-only, built once)");
+  m.def(
+      "rts_smooth",
+      [](const Model& model, const PyFilterRun& run, const py::object& progress) {
+        PySmootherRun sm;
+        static_cast<SmootherRun&>(sm) = SmoothStored(model, run, progress);
+        sm.P_stack = TakeStack(&sm.P);
+        return sm;
+      },
+      py::arg("model"), py::arg("run"), py::arg("progress") = py::none(),
+      (std::string("Rauch-Tung-Striebel smoother of a run_filter result (needs store_covariances='full'; "
+                   "raises kfx.Error otherwise).") +
+       kProgressDoc)
+          .c_str());
 
-  py::class_<KalmanSchedule>(m, "KalmanSchedule", "The offline part: gains and covariances, k = 1..T.")
-      .def_property_readonly(
-          "filter_gain", [](const KalmanSchedule& s) { return Stack(s.filter_gain, 1); }, "(T, n, m): K_1..K_T")
-      .def_property_readonly(
-          "P_pred", [](const KalmanSchedule& s) { return Stack(s.P_pred); }, "(T+1, n, n), [0] = P0")
-      .def_property_readonly(
-          "P_filt", [](const KalmanSchedule& s) { return Stack(s.P_filt); }, "(T+1, n, n), [0] = P0");
+  py::class_<PyKalmanSchedule>(m, "KalmanSchedule", "The offline part: gains and covariances, k = 1..T.")
+      .def_readonly("filter_gain", &PyKalmanSchedule::filter_gain, "(T, n, m): K_1..K_T")
+      .def_readonly("P_pred", &PyKalmanSchedule::P_pred, "(T+1, n, n), [0] = P0")
+      .def_readonly("P_filt", &PyKalmanSchedule::P_filt, "(T+1, n, n), [0] = P0");
   m.def(
       "kalman_schedule",
-      [](const Model& model, int steps) { return ComputeKalmanSchedule(model, KalmanScheduleOptions{steps}); },
-      py::arg("model"), py::arg("steps") = -1);
+      [](const Model& model, int steps, const py::object& progress) {
+        LongCall call(progress);
+        KalmanScheduleOptions o{steps};
+        o.progress = call.callback();
+        KalmanSchedule s = call.Run([&] { return ComputeKalmanSchedule(model, o); });
+        PyKalmanSchedule out;
+        out.filter_gain = TakeStack(&s.filter_gain, 1);
+        out.P_pred = TakeStack(&s.P_pred);
+        out.P_filt = TakeStack(&s.P_filt);
+        return out;
+      },
+      py::arg("model"), py::arg("steps") = -1, py::arg("progress") = py::none(),
+      (std::string("The Kalman filter's gain and covariance schedule over steps (default: the model's horizon).") +
+       kProgressDoc)
+          .c_str());
   m.def(
       "kalman_as_linear_filter",
       [](const Model& model, int steps) {
+        py::gil_scoped_release release;
         return KalmanAsLinearFilter(model, ComputeKalmanSchedule(model, KalmanScheduleOptions{steps}));
       },
       py::arg("model"), py::arg("steps") = -1,

@@ -44,6 +44,7 @@ void BindMismatch(py::module_& m) {
       [](const ModelStep& design, const ModelStep& truth, std::optional<Eigen::MatrixXd> gain) {
         MismatchOptions o;
         o.filter_gain = OrEmpty(gain);
+        py::gil_scoped_release release;
         return StationaryMismatchedCovariance(design, truth, o);
       },
       py::arg("design"), py::arg("truth"), py::arg("filter_gain") = py::none(),
@@ -53,7 +54,11 @@ void BindMismatch(py::module_& m) {
       [](const Model& design, const Model& truth, int steps) {
         MismatchSequenceOptions o;
         o.steps = steps;
-        MismatchSequence s = MismatchedCovarianceSequence(design, truth, o);
+        MismatchSequence s;
+        {
+          py::gil_scoped_release release;
+          s = MismatchedCovarianceSequence(design, truth, o);
+        }
         py::dict d;
         d["P"] = Stack(s.P);
         d["V"] = Stack(s.V);
@@ -79,7 +84,11 @@ void BindMismatch(py::module_& m) {
       [](const ModelStep& design, const ErrorRanges& ranges, std::optional<Eigen::MatrixXd> gain) {
         MismatchOptions o;
         o.filter_gain = OrEmpty(gain);
-        PatelTodaBounds b = ComputePatelTodaBounds(design, ranges, o);
+        PatelTodaBounds b;
+        {
+          py::gil_scoped_release release;
+          b = ComputePatelTodaBounds(design, ranges, o);
+        }
         py::dict d;
         d["summary"] = b.summary;
         d["pi3"] = OptionalFloat(b.pi3);
@@ -103,7 +112,11 @@ void BindMismatch(py::module_& m) {
   m.def(
       "theorem1_bound",
       [](const ModelStep& design, const ModelingErrors& errors) {
-        Theorem1Result r = Theorem1Bound(design, errors);
+        Theorem1Result r;
+        {
+          py::gil_scoped_release release;
+          r = Theorem1Bound(design, errors);
+        }
         py::dict d;
         d["summary"] = r.summary;
         d["pi1"] = r.pi1;

@@ -8,6 +8,7 @@
 #include "kfx/error.hpp"
 #include "kfx/model.hpp"
 #include "kfx/simulation.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 
@@ -75,25 +76,38 @@ void BindModel(py::module_& m) {
 
   m.def(
       "simulate",
-      [](const Model& model, int steps, std::uint64_t seed) {
-        Trajectory t = Simulate(model, SimulationOptions{steps, seed});
-        return py::make_tuple(t.x, t.y);
+      [](const Model& model, int steps, std::uint64_t seed, const py::object& progress) {
+        LongCall call(progress);
+        SimulationOptions o{steps, seed};
+        o.progress = call.callback();
+        Trajectory t = call.Run([&] { return Simulate(model, o); });
+        return py::make_tuple(std::move(t.x), std::move(t.y));
       },
-      py::arg("model"), py::arg("steps") = -1, py::arg("seed") = 1,
-      "Draws x_0 ~ N(m0, P0), then x_k, y_k for k = 1..steps. Returns (x (T+1, n), y (T, m)); the same seed "
-      "gives the same numbers on every platform (and as `kfx simulate`).");
-  m.def("matrix_exponential", &MatrixExponential, py::arg("M"));
+      py::arg("model"), py::arg("steps") = -1, py::arg("seed") = 1, py::arg("progress") = py::none(),
+      (std::string("Draws x_0 ~ N(m0, P0), then x_k, y_k for k = 1..steps. Returns (x (T+1, n), y (T, m)); the "
+                   "same seed gives the same numbers on every platform (and as `kfx simulate`).") +
+       kProgressDoc)
+          .c_str());
+  m.def("matrix_exponential", &MatrixExponential, py::arg("M"), py::call_guard<py::gil_scoped_release>());
   m.def(
       "discretize_zoh",
       [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double dt) {
-        auto d = DiscretizeZoh(A, B, dt);
+        ZohDiscretization d;
+        {
+          py::gil_scoped_release release;
+          d = DiscretizeZoh(A, B, dt);
+        }
         return py::make_tuple(d.Ad, d.Bd);
       },
       py::arg("A"), py::arg("B"), py::arg("dt"), "Zero-order hold: (Ad, Bd).");
   m.def(
       "discretize_process_noise",
       [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& Qc, double dt) {
-        auto d = DiscretizeProcessNoise(A, Qc, dt);
+        NoiseDiscretization d;
+        {
+          py::gil_scoped_release release;
+          d = DiscretizeProcessNoise(A, Qc, dt);
+        }
         return py::make_tuple(d.Ad, d.Qd);
       },
       py::arg("A"), py::arg("Qc"), py::arg("dt"), "Van Loan: (Ad, Qd = int_0^dt e^{As} Qc e^{A^T s} ds).");

@@ -9,6 +9,7 @@
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
 #include "kfx/performance.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 
@@ -42,6 +43,7 @@ void BindPerformance(py::module_& m) {
           "step", [](const LinearFilter& f, int k) { return *f.step(k); }, py::arg("k"))
       .def(
           "run", [](const LinearFilter& f, const TimeSeries& y) { return RunLinearFilter(f, y); }, py::arg("y"),
+          py::call_guard<py::gil_scoped_release>(),
           "The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out).");
 
   py::class_<PerformanceResult>(m, "PerformanceResult")
@@ -54,18 +56,21 @@ void BindPerformance(py::module_& m) {
   m.def(
       "exact_performance",
       [](const Model& truth, const LinearFilter& filter, int steps, std::optional<Eigen::MatrixXd> weight,
-         bool store_error_moments) {
+         bool store_error_moments, const py::object& progress) {
         PerformanceOptions o;
         o.steps = steps;
         o.weight = OrEmpty(weight);
         o.store_error_moments = store_error_moments;
-        py::gil_scoped_release release;
-        return ExactPerformance(truth, filter, o);
+        LongCall call(progress);
+        o.progress = call.callback();
+        return call.Run([&] { return ExactPerformance(truth, filter, o); });
       },
       py::arg("truth"), py::arg("filter"), py::arg("steps") = -1, py::arg("weight") = py::none(),
-      py::arg("store_error_moments") = true,
-      "The exact mean-square error of any linear filter on any true model (the one engine every kfx "
-      "method reports through), e_k = x_k - O_k z_k.");
+      py::arg("store_error_moments") = true, py::arg("progress") = py::none(),
+      (std::string("The exact mean-square error of any linear filter on any true model (the one engine every kfx "
+                   "method reports through), e_k = x_k - O_k z_k.") +
+       kProgressDoc)
+          .c_str());
   py::class_<StationaryPerformance>(m, "StationaryPerformance")
       .def_property_readonly(
           "method", [](const StationaryPerformance& s) { return std::string(ToString(s.method)); },
@@ -80,6 +85,7 @@ void BindPerformance(py::module_& m) {
       [](const Model& truth, const LinearFilter& filter, std::optional<Eigen::MatrixXd> weight) {
         StationaryPerformanceOptions o;
         o.weight = OrEmpty(weight);
+        py::gil_scoped_release release;
         return ExactStationaryPerformance(truth, filter, o);
       },
       py::arg("truth"), py::arg("filter"), py::arg("weight") = py::none());
@@ -95,19 +101,23 @@ void BindPerformance(py::module_& m) {
   m.def(
       "monte_carlo_performance",
       [](const Model& truth, const LinearFilter& filter, int runs, std::uint64_t seed, int steps,
-         std::optional<Eigen::MatrixXd> weight, bool store_error_moments) {
+         std::optional<Eigen::MatrixXd> weight, bool store_error_moments, const py::object& progress) {
         MonteCarloOptions o;
         o.runs = runs;
         o.seed = seed;
         o.steps = steps;
         o.weight = OrEmpty(weight);
         o.store_error_moments = store_error_moments;
-        py::gil_scoped_release release;
-        return MonteCarloPerformance(truth, filter, o);
+        LongCall call(progress);
+        o.progress = call.callback();
+        return call.Run([&] { return MonteCarloPerformance(truth, filter, o); });
       },
       py::arg("truth"), py::arg("filter"), py::arg("runs") = 1000, py::arg("seed") = 1, py::arg("steps") = -1,
-      py::arg("weight") = py::none(), py::arg("store_error_moments") = false,
-      "Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`).");
+      py::arg("weight") = py::none(), py::arg("store_error_moments") = false, py::arg("progress") = py::none(),
+      (std::string("Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`); progress "
+                   "counts runs.") +
+       kProgressDoc)
+          .c_str());
 }
 
 }  // namespace kfx::python

@@ -56,7 +56,7 @@ void BindReducedOrder(py::module_& m) {
         return ComputeReducedOrderOneStep(model, L, opts(steps, tol));
       },
       py::arg("model"), py::arg("L"), py::arg("steps") = -1, py::arg("rank_tolerance") = 1e-10,
-      "001 Sec. II: the one-step reduced-order filter (offline part).");
+      py::call_guard<py::gil_scoped_release>(), "001 Sec. II: the one-step reduced-order filter (offline part).");
   m.def("reduced_order_one_step_as_linear_filter", &ReducedOrderOneStepAsLinearFilter, py::arg("schedule"),
         py::arg("L"), "The one-step filter as a kfx.LinearFilter (output L_k^+ xi_k).");
   m.def(
@@ -65,7 +65,7 @@ void BindReducedOrder(py::module_& m) {
         return ComputeReducedOrderTwoStep(model, L, opts(steps, tol));
       },
       py::arg("model"), py::arg("L"), py::arg("steps") = -1, py::arg("rank_tolerance") = 1e-10,
-      "001 Sec. III: the two-step (data assimilation + forecast) filter.");
+      py::call_guard<py::gil_scoped_release>(), "001 Sec. III: the two-step (data assimilation + forecast) filter.");
   m.def(
       "reduced_order_two_step_as_linear_filter",
       [](const ReducedOrderTwoStep& s, const WeightSchedule& L, const std::string& output) {
@@ -79,14 +79,18 @@ void BindReducedOrder(py::module_& m) {
         o.steps = steps;
         return WeightedCost(truth, f, L, o);
       },
-      py::arg("truth"), py::arg("filter"), py::arg("L"), py::arg("steps"),
+      py::arg("truth"), py::arg("filter"), py::arg("L"), py::arg("steps"), py::call_guard<py::gil_scoped_release>(),
       "J_k = E|L_k x_k - L_k O_k z_k|^2, k = 0..T, from the exact-performance engine.");
   m.def(
       "kalman_costs",
       [](const Model& model, const WeightSchedule& L, int steps) {
         ReducedOrderOptions o;
         o.steps = steps;
-        KalmanWeightedCosts c = KalmanCosts(model, L, o);
+        KalmanWeightedCosts c;
+        {
+          py::gil_scoped_release release;
+          c = KalmanCosts(model, L, o);
+        }
         return py::make_tuple(c.predictor, c.filter);
       },
       py::arg("model"), py::arg("L"), py::arg("steps"),
@@ -98,6 +102,7 @@ void BindReducedOrder(py::module_& m) {
       .def_readonly("other_eigenvalues", &InvariantSubspaceBasis::other_eigenvalues)
       .def_readonly("invariance_residual", &InvariantSubspaceBasis::invariance_residual);
   m.def("least_damped_subspace", &LeastDampedSubspace, py::arg("A"), py::arg("n_r"),
+        py::call_guard<py::gil_scoped_release>(),
         "The n_r least damped modes of A (ordered real Schur form), canonical basis T = [V_r, V_s].");
   m.def("triangularity_defect", &TriangularityDefect, py::arg("A"), py::arg("T"), py::arg("n_r"));
   py::class_<SubspaceOneStep>(m, "SubspaceOneStep")
@@ -116,7 +121,8 @@ void BindReducedOrder(py::module_& m) {
       [opts](const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r, const WeightSchedule& L, int steps,
              double tol) { return ComputeSubspaceOneStep(model, T, n_r, L, opts(steps, tol)); },
       py::arg("model"), py::arg("T"), py::arg("n_r"), py::arg("L"), py::arg("steps") = -1,
-      py::arg("rank_tolerance") = 1e-10, "001 Sec. IV (4.10)-(4.13): the one-step subspace estimator.");
+      py::arg("rank_tolerance") = 1e-10, py::call_guard<py::gil_scoped_release>(),
+      "001 Sec. IV (4.10)-(4.13): the one-step subspace estimator.");
   m.def("subspace_one_step_as_linear_filter", &SubspaceOneStepAsLinearFilter, py::arg("schedule"), py::arg("T"),
         py::arg("n_r"));
   m.def(
@@ -124,7 +130,8 @@ void BindReducedOrder(py::module_& m) {
       [opts](const Model& model, const Eigen::MatrixXd& T, Eigen::Index n_r, const WeightSchedule& L, int steps,
              double tol) { return ComputeSubspaceTwoStep(model, T, n_r, L, opts(steps, tol)); },
       py::arg("model"), py::arg("T"), py::arg("n_r"), py::arg("L"), py::arg("steps") = -1,
-      py::arg("rank_tolerance") = 1e-10, "001 (4.16)-(4.20): the two-step subspace estimator.");
+      py::arg("rank_tolerance") = 1e-10, py::call_guard<py::gil_scoped_release>(),
+      "001 (4.16)-(4.20): the two-step subspace estimator.");
   m.def(
       "subspace_two_step_as_linear_filter",
       [](const SubspaceTwoStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r, const std::string& output) {

@@ -5,6 +5,7 @@
 
 #include "bindings.hpp"
 #include "kfx/reproduce.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 namespace {
@@ -30,26 +31,25 @@ void BindReproduce(py::module_& m) {
   m.def("paper_ids", &PaperIds, "The ids accepted by reproduce(), in paper order.");
   m.def(
       "reproduce",
-      [](const std::string& paper, bool quick, const std::string& out_dir) {
+      [](const std::string& paper, bool quick, const std::string& out_dir, const py::object& progress) {
         std::vector<std::string> ids = paper == "all" ? PaperIds() : std::vector<std::string>{paper};
         py::list items;
         for (const auto& id : ids) {
           ReproduceOptions o;
           o.quick = quick;
           if (!out_dir.empty()) o.out_dir = paper == "all" ? out_dir + "/" + id : out_dir;
-          PaperReport r;
-          {
-            py::gil_scoped_release release;
-            r = Reproduce(id, o);
-          }
+          LongCall call(progress);
+          o.progress = call.callback();
+          const PaperReport r = call.Run([&] { return Reproduce(id, o); });
           for (const auto& it : r.items) items.append(ItemToDict(id, it));
         }
         return items;
       },
-      py::arg("paper"), py::arg("quick") = false, py::arg("out_dir") = "",
+      py::arg("paper"), py::arg("quick") = false, py::arg("out_dir") = "", py::arg("progress") = py::none(),
       "A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, "
       "value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data "
-      "for figures goes (kfx.plots.render(out_dir) draws them).");
+      "for figures goes (kfx.plots.render(out_dir) draws them). progress: None or progress(done, total) for "
+      "each paper in turn, at most every 0.05 s; Ctrl-C stops the run with KeyboardInterrupt.");
 }
 
 }  // namespace kfx::python

@@ -6,6 +6,7 @@
 #include "bindings.hpp"
 #include "kfx/enum_text.hpp"
 #include "kfx/riccati.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 
@@ -34,19 +35,24 @@ void BindRiccati(py::module_& m) {
       "solve_filter_dare",
       [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& R,
          const std::string& method, int max_iterations, double tolerance, bool refine, bool exact_eigenvalues,
-         const std::optional<Eigen::MatrixXd>& S, const std::optional<Eigen::MatrixXd>& E) {
+         const std::optional<Eigen::MatrixXd>& S, const std::optional<Eigen::MatrixXd>& E, const py::object& progress) {
         DareOptions o;
         o.method = ParseEnum<DareMethod>("method", method);
         o.max_iterations = max_iterations;
         o.tolerance = tolerance;
         o.refine = refine;
         o.exact_eigenvalues = exact_eigenvalues;
-        if (!S && !E) return SolveFilterDare(A, C, Q, R, o);
-        return SolveFilterDare(A, C, Q, R, S ? *S : Eigen::MatrixXd(0, 0), E ? *E : Eigen::MatrixXd(0, 0), o);
+        LongCall call(progress);
+        o.progress = call.callback();
+        return call.Run([&] {
+          if (!S && !E) return SolveFilterDare(A, C, Q, R, o);
+          return SolveFilterDare(A, C, Q, R, S ? *S : Eigen::MatrixXd(0, 0), E ? *E : Eigen::MatrixXd(0, 0), o);
+        });
       },
       py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"), py::arg("method") = "auto",
       py::arg("max_iterations") = 60, py::arg("tolerance") = 1e-14, py::arg("refine") = true,
       py::arg("exact_eigenvalues") = false, py::arg("S") = py::none(), py::arg("E") = py::none(),
+      py::arg("progress") = py::none(),
       "Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's "
       "solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, "
       "never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; "
@@ -56,11 +62,14 @@ void BindRiccati(py::module_& m) {
       "python-control's dare(A.T, C.T, Q, R, S, E.T); predictor_gain K_p = (A P C^T + S) W^{-1} (python-control's "
       "G is K_p.T), filter_gain K_f = P C^T W^{-1}. method 'doubling': E^{-1} and the decorrelation "
       "A - S R^{-1} C, Q - S R^{-1} S^T, then the standard solver; 'schur': SLICOT SG02AD; 'auto': doubling, "
-      "SG02AD if E is ill-conditioned or doubling fails. [[Q, S], [S^T, R]] must be PSD, E nonsingular.");
+      "SG02AD if E is ill-conditioned or doubling fails. [[Q, S], [S^T, R]] must be PSD, E nonsingular. "
+      "progress: None or progress(step, max_iterations) over the doubling steps (not the Schur method), at most "
+      "every 0.05 s; the GIL is released, and Ctrl-C stops the doubling with KeyboardInterrupt.");
   m.def(
       "filter_dare_residual",
       [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& R,
          const Eigen::MatrixXd& P, const std::optional<Eigen::MatrixXd>& S, const std::optional<Eigen::MatrixXd>& E) {
+        py::gil_scoped_release release;
         if (!S && !E) return FilterDareResidual(A, C, Q, R, P);
         return FilterDareResidual(A, C, Q, R, S ? *S : Eigen::MatrixXd(0, 0), E ? *E : Eigen::MatrixXd(0, 0), P);
       },
@@ -106,7 +115,8 @@ void BindRiccati(py::module_& m) {
       "Stein / discrete Sylvester equation A X B - X + C = 0 (python-control dlyap(A, Q, C) is B = Q.T) by "
       "SLICOT SB04QD. Returns a SteinSolution; a singular equation is .summary.termination 'singular'.");
   m.def(
-      "spectral_radius", [](const Eigen::MatrixXd& A) { return SpectralRadius(A); }, py::arg("A"));
+      "spectral_radius", [](const Eigen::MatrixXd& A) { return SpectralRadius(A); }, py::arg("A"),
+      py::call_guard<py::gil_scoped_release>());
 }
 
 }  // namespace kfx::python

@@ -6,6 +6,7 @@
 #include "bindings.hpp"
 #include "kfx/damped_wave.hpp"
 #include "kfx/subspace_filter.hpp"
+#include "long_call.hpp"
 
 namespace kfx::python {
 
@@ -39,19 +40,24 @@ void BindSubspaceFilter(py::module_& m) {
   m.def(
       "subspace_filter_schedule",
       [](const ModelStep& truth, const Eigen::MatrixXd& S0, const Subspace& sub, int steps, int max_steps,
-         double tolerance, bool rde_check, bool stationary_prior) {
+         double tolerance, bool rde_check, bool stationary_prior, const py::object& progress) {
         SubspaceFilterOptions o;
         o.steps = steps;
         o.max_steps = max_steps;
         o.tolerance = tolerance;
         o.rde_check = rde_check;
         o.stationary_prior = stationary_prior;
-        py::gil_scoped_release release;
-        return ComputeSubspaceFilterSchedule(truth, S0, sub, o);
+        LongCall call(progress);
+        o.progress = call.callback();
+        return call.Run([&] { return ComputeSubspaceFilterSchedule(truth, S0, sub, o); });
       },
       py::arg("truth"), py::arg("S0"), py::arg("subspace"), py::arg("steps") = -1, py::arg("max_steps") = 20000,
       py::arg("tolerance") = 1e-11, py::arg("rde_check") = false, py::arg("stationary_prior") = false,
-      "000 Algorithm 2.3 (offline part): gains K_k and output maps Q_k until convergence (or `steps`).");
+      py::arg("progress") = py::none(),
+      (std::string("000 Algorithm 2.3 (offline part): gains K_k and output maps Q_k until convergence (or "
+                   "`steps`).") +
+       kProgressDoc)
+          .c_str());
   m.def("subspace_filter_as_linear_filter", &SubspaceFilterAsLinearFilter, py::arg("truth"), py::arg("subspace"),
         py::arg("schedule"), py::arg("m0"), "The time-varying subspace filter (z_0 = Pi m0) for exact_performance.");
   m.def("converged_subspace_filter_as_linear_filter", &ConvergedSubspaceFilterAsLinearFilter, py::arg("truth"),

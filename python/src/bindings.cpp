@@ -1,6 +1,9 @@
 // The shared helpers of the kfx._core bindings (declared in bindings.hpp and array_caster.hpp): the one
 // conversion of array input, numpy stacks of matrices to and from lists of Eigen matrices.
 #include <limits>
+#if defined(__GLIBC__)
+#include <malloc.h>  // malloc_trim
+#endif
 
 #include "bindings.hpp"
 #include "kfx/error.hpp"
@@ -84,6 +87,39 @@ py::array_t<double> Stack(const std::vector<Eigen::MatrixXd>& matrices, size_t b
       for (Eigen::Index j = 0; j < c; ++j) a(static_cast<py::ssize_t>(k), i, j) = M(i, j);
   }
   return out;
+}
+
+py::object TakeStack(std::vector<Eigen::MatrixXd>* matrices, size_t begin) {
+  std::vector<Eigen::MatrixXd>& v = *matrices;
+  const size_t K = v.size() > begin ? v.size() - begin : 0;
+  const Eigen::Index r = K ? v[begin].rows() : 0, c = K ? v[begin].cols() : 0;
+  py::array_t<double> out({static_cast<py::ssize_t>(K), static_cast<py::ssize_t>(r), static_cast<py::ssize_t>(c)});
+  double* data = out.mutable_data();
+  {
+    py::gil_scoped_release release;  // a copy into memory no other thread sees yet
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+#if defined(__GLIBC__)
+    const size_t bytes = static_cast<size_t>(r * c) * sizeof(double);
+    size_t freed = 0;
+#endif
+    for (size_t k = 0; k < K; ++k) {
+      Eigen::MatrixXd& M = v[begin + k];
+      KFX_ASSERT(M.rows() == r && M.cols() == c);
+      Eigen::Map<RowMajor>(data + static_cast<Eigen::Index>(k) * r * c, r, c) = M;
+      Eigen::MatrixXd().swap(M);
+#if defined(__GLIBC__)
+      // Matrices below glibc's mmap threshold (32 MiB at most) are freed into the heap, where free()
+      // returns only its top to the system: hand the freed pages back as the stack fills.
+      if ((freed += bytes) >= (64u << 20)) {
+        malloc_trim(0);
+        freed = 0;
+      }
+#endif
+    }
+  }
+  std::vector<Eigen::MatrixXd>().swap(v);
+  out.attr("flags").attr("writeable") = false;
+  return std::move(out);
 }
 
 std::vector<Eigen::MatrixXd> Unstack(const py::array& stack, const std::string& name) {

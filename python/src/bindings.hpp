@@ -24,6 +24,10 @@ namespace py = pybind11;
 
 /// A (K, rows, cols) float64 array of K matrices of one shape, from index `begin` on.
 py::array_t<double> Stack(const std::vector<Eigen::MatrixXd>& matrices, size_t begin = 0);
+/// Stack, built once: moves the matrices from index `begin` on into a new read-only (K, rows, cols) array,
+/// freeing each as it is copied (peak memory one stack plus one matrix), and clears `matrices` (none: a
+/// (0, 0, 0) array). For results whose property returns the same array on every access.
+py::object TakeStack(std::vector<Eigen::MatrixXd>* matrices, size_t begin = 0);
 /// K matrices from a (K, rows, cols) array (any memory order). @throws kfx::Error naming `name`.
 std::vector<Eigen::MatrixXd> Unstack(const py::array& stack, const std::string& name);
 /// A list of matrices from a Python sequence of 2-D arrays or a (K, rows, cols) array.

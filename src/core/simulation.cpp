@@ -94,6 +94,7 @@ Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& r
       throw NumericalError("simulate: the trajectory is not finite at step " + std::to_string(k) + " of " +
                            std::to_string(T) + " (the state overflows: the model diverges; simulate fewer steps)");
     }
+    if (options.progress) options.progress(k, T);
   }
   return tr;
 }

@@ -140,7 +140,7 @@ FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOpti
   return detail::KalmanFormFor(options.filter, n, m).Run(model, y, options, T);
 }
 
-SmootherRun RtsSmooth(const Model& model, const FilterRun& run) {
+SmootherRun RtsSmooth(const Model& model, const FilterRun& run, const SmootherOptions& options) {
   const Eigen::Index n = model.state_dim();
   const int T = static_cast<int>(run.x_filt.rows()) - 1;
   if (T < 0 || run.x_filt.cols() != n)
@@ -183,6 +183,7 @@ SmootherRun RtsSmooth(const Model& model, const FilterRun& run) {
     sm.x.row(k) = xs.transpose();
     sm.P_diag.row(k) = Ps.diagonal().transpose();
     sm.P[kk] = Ps;
+    if (options.progress) options.progress(T - k, T);
   }
   return sm;
 }

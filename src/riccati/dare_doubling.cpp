@@ -105,6 +105,7 @@ DareCandidate SolveDareByDoubling(const ConstRef& A, const ConstRef& C, const Co
       return out;
     }
     last_change = change / std::max(h_norm, kTiny);
+    if (options.progress) options.progress(k, options.max_iterations);
     if (change <= options.tolerance * h_norm) {  // converged: G_{k+1}, A_{k+1} are not needed
       out.P = std::move(H);
       out.termination = Termination::kConverged;

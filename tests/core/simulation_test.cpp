@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "kfx/error.hpp"
 #include "support/matrix_testing.hpp"
@@ -81,6 +82,22 @@ TEST(Simulate, ReproducibleShapesAndCovariance) {
     EXPECT_LT(std::abs(ycov(i, i) - S(i, i)), 4.5 * std::sqrt(2 * S(i, i) * S(i, i) / N));
   EXPECT_THROW(SimulateBatch(model, -1, {2, 1}), Error);
   EXPECT_THROW(Simulate(model, {-1, 1}), Error);  // no horizon
+}
+
+TEST(Simulate, ProgressCountsEveryStepAndLeavesTheTrajectoryAlone) {
+  kfx::testing::TestRng rng(2);
+  Model model(MakeStep(rng.WithSpectralRadius(3, 0.9), rng.Gaussian(2, 3), rng.Spd(3), rng.Spd(2)), VectorXd::Zero(3),
+              rng.Spd(3));
+  std::vector<long> steps;
+  SimulationOptions o{12, 4};
+  o.progress = [&](long done, long total) {
+    EXPECT_EQ(total, 12);
+    steps.push_back(done);
+  };
+  const Trajectory with = Simulate(model, o), without = Simulate(model, {12, 4});
+  EXPECT_MATRICES_NEAR(MatrixXd(with.x), MatrixXd(without.x), 0.0);
+  ASSERT_EQ(steps.size(), 12u);
+  for (size_t i = 0; i < steps.size(); ++i) EXPECT_EQ(steps[i], static_cast<long>(i) + 1);
 }
 
 TEST(Simulate, NoiseInputDrawsInItsOwnDimension) {

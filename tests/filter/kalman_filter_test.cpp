@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include "kfx/error.hpp"
 #include "kfx/riccati.hpp"
@@ -397,6 +399,38 @@ TEST(RtsSmoother, SingularPredictedCovarianceUsesPseudoInverse) {
   // Constant state seen through three measurements: every smoothed estimate is the posterior mean.
   const double post = (1.0 + 1.2 + 0.8) / (0.5 + 3.0);  // prior var 1, noise var 0.5: mean = sum y / (0.5 + 3)
   for (int k = 0; k <= 3; ++k) EXPECT_NEAR(sm.x(k, 0), post, 1e-12);
+}
+
+// The progress hook is also the cancellation hook (include/kfx/progress.hpp): counts in order, and an
+// exception thrown by the callback leaves the run unchanged (the Python bindings deliver Ctrl-C this way).
+TEST(KalmanFilter, ProgressCountsEveryStepAndAThrowingCallbackStopsTheRun) {
+  struct Stop {
+    long at;
+  };
+  Model model(Dwna(1.0, 0.5, 1.0), VectorXd::Zero(2), MatrixXd::Identity(2, 2));
+  const TimeSeries y = Simulate(model, SimulationOptions{7, 3}).y;
+  std::vector<std::pair<long, long>> seen;
+  FilterRunOptions o;
+  o.progress = [&](long done, long total) { seen.emplace_back(done, total); };
+  const FilterRun run = RunFilter(model, y, o);
+  ASSERT_EQ(seen.size(), 7u);
+  for (size_t i = 0; i < seen.size(); ++i) EXPECT_EQ(seen[i], std::make_pair(static_cast<long>(i) + 1, 7L));
+  seen.clear();
+  SmootherOptions so;
+  so.progress = o.progress;
+  RtsSmooth(model, run, so);
+  ASSERT_EQ(seen.size(), 7u);
+  EXPECT_EQ(seen.front(), std::make_pair(1L, 7L));
+  EXPECT_EQ(seen.back(), std::make_pair(7L, 7L));
+  o.progress = [](long done, long) {
+    if (done == 3) throw Stop{done};
+  };
+  try {
+    RunFilter(model, y, o);
+    ADD_FAILURE() << "the run did not stop";
+  } catch (const Stop& s) {
+    EXPECT_EQ(s.at, 3);
+  }
 }
 
 TEST(KalmanFilter, RunValidatesData) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "kfx/error.hpp"
 #include "kfx/riccati.hpp"
@@ -112,6 +113,22 @@ TEST(DareScalar, RandomWalkGivesTheGoldenRatio) {
   EXPECT_NEAR(s.P_pred(0, 0), (1 + std::sqrt(5.0)) / 2, 1e-15);
   EXPECT_EQ(s.method_used, DareMethod::kDoubling);
   EXPECT_FALSE(s.fell_back);
+}
+
+TEST(DareScalar, DoublingReportsEachStepToTheProgressHook) {
+  const MatrixXd one = MatrixXd::Ones(1, 1);
+  DareOptions o;
+  o.method = DareMethod::kDoubling;
+  std::vector<long> steps;
+  o.progress = [&](long done, long total) {
+    EXPECT_EQ(total, o.max_iterations);
+    steps.push_back(done);
+  };
+  const DareSolution s = SolveFilterDare(one, one, one, one, o);
+  EXPECT_NEAR(s.P_pred(0, 0), (1 + std::sqrt(5.0)) / 2, 1e-15);
+  ASSERT_FALSE(steps.empty());
+  for (size_t i = 0; i < steps.size(); ++i) EXPECT_EQ(steps[i], static_cast<long>(i) + 1);
+  EXPECT_LT(steps.back(), o.max_iterations);  // converged before the limit
 }
 
 TEST(DareScalar, WithoutMeasurementInformationIsTheLyapunovSolution) {
