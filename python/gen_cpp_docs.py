@@ -5,7 +5,8 @@ Usage: gen_cpp_docs.py OUT.inc HEADER...   (run by CMake at build time; python/C
 
 Each entry is {"Key", "header", R"(text)"}: Key is a declaration's name (`SolveFilterDare`,
 `DareSolution`) or, inside a struct or class, `Struct::member` (`DareSolution::P_pred`); the comment is
-the `///` block above the declaration or the `///<` comment after it. Overloads of one name are joined.
+the `///` block above the declaration or the `///<` comment after it (a data member without one,
+right below a documented member, shares that member's block). Overloads of one name are joined.
 python/src/cpp_docs.cpp appends these texts to the docstrings of the bindings that wrap the
 declarations, so the Python docstrings carry the C++ comments and cannot drift from them.
 """
@@ -30,7 +31,8 @@ def declared_name(decl):
         return m.group(1)
     if decl.startswith(("using ", "namespace ", "#", "friend ", "static_assert")):
         return None
-    if "(" in decl:
+    before_init = decl.split("=")[0] if "operator" not in decl else decl
+    if "(" in before_init:
         head = decl[: decl.index("(")].strip()
         if head.endswith("operator"):
             return None
@@ -41,20 +43,32 @@ def declared_name(decl):
     return names[-1] if names else None
 
 
+def member_names(decl):
+    """The names of a data member declaration that declares several (`Eigen::MatrixXd F, H, V;`)."""
+    if "(" in decl.split("=")[0] or "," not in decl or "<" in decl.split(",")[0] and ">" not in decl.split(",")[0]:
+        return None
+    parts = [p.split("=")[0].strip(" ;") for p in decl.split(";")[0].split(",")]
+    first = IDENT.findall(parts[0])
+    names = [first[-1]] + [p for p in parts[1:] if IDENT.fullmatch(p)]
+    return names if len(names) == len(parts) else None
+
+
 def extract(path):
     """(key, text) for every documented declaration of one header."""
-    entries, pending, scopes, depth = [], [], [], 0
+    entries, pending, group, scopes, depth = [], [], [], [], 0
     lines = open(path, encoding="utf-8").read().splitlines()
     i = 0
     while i < len(lines):
         stripped = lines[i].strip()
         if stripped.startswith("///") and not stripped.startswith("///<"):
+            if not pending:
+                group = []
             pending.append(stripped[3:].strip())
             i += 1
             continue
         if not stripped or stripped.startswith("//"):
             if not stripped:
-                pending = []
+                pending, group = [], []
             i += 1
             continue
         # A declaration: gather lines until it ends (';' or '{' or ')' + ';').
@@ -66,9 +80,17 @@ def extract(path):
         trailing = [l.split("///<", 1)[1].strip() for l in decl_lines if "///<" in l]
         name = declared_name(decl)
         scope = "::".join(s for s, _ in scopes)
+        if pending:
+            group = pending
+        elif not trailing and scopes and "(" not in decl.split("=")[0]:
+            pending = group  # a data member right below a documented one shares its comment
         if name and (pending or trailing) and not re.match(r"\s*k[A-Z]\w*\s*[,=]", decl):
-            key = f"{scope}::{name}" if scope else name
-            entries.append((key, " ".join(pending + trailing) if not pending else "\n".join(pending + trailing)))
+            text = "\n".join(pending + trailing)
+            names = member_names(decl) or [name]
+            if len(names) > 1:
+                text = ", ".join(names) + ": " + text
+            for each in names:
+                entries.append((f"{scope}::{each}" if scope else each, text))
         pending = []
         m = re.match(r"\s*(?:template ?<[^>]*> ?)?(struct|class) (\w+)[^;]*\{", decl)
         opened = decl.count("{") - decl.count("}")

@@ -23,12 +23,13 @@ struct CppDoc {
 };
 
 const CppDoc kCppDocs[] = {
-#include "kfx_cpp_docs.inc"
+#include <kfx_cpp_docs.inc>  // generated in the build tree (python/CMakeLists.txt), hence <>
 };
 
 // Python name -> C++ name where they differ beyond case and underscores.
 const std::map<std::string, std::string> kRenamed = {
     {"kalman_schedule", "ComputeKalmanSchedule"},
+    {"sampled_model_at", "SampledModel"},
 };
 
 std::string Normalized(const std::string& name) {
@@ -92,9 +93,11 @@ void AttachToClass(py::handle cls, const std::string& name) {
   for (auto item : members) {
     std::string member = py::str(item.first);
     if (member.empty() || member[0] == '_') continue;
-    const CppDoc* d = Find(member, name);
-    if (!d) continue;
     py::handle value = item.second;
+    const CppDoc* d = Find(member, name);
+    // A method bound from a free function (CoupledSystem.to_dense_model -> ToDenseModel).
+    if (!d && !py::isinstance(value, property)) d = Find(member);
+    if (!d) continue;
     if (py::isinstance(value, property)) {
       AppendToAttribute(value, Section(*d));
     } else {

@@ -10,7 +10,7 @@
 
 namespace kfx::python {
 
-void BindCompare(py::module_& m);  // bind_compare.cpp: method_spec.hpp, compare.hpp
+void BindCompare(py::module_& m);    // bind_compare.cpp: method_spec.hpp, compare.hpp
 void AttachCppDocs(py::module_& m);  // cpp_docs.cpp: the C++ doc comments appended to the docstrings
 
 namespace {
