@@ -9,6 +9,7 @@ extensions = ["sphinx.ext.autodoc"]
 autodoc_default_options = {"members": True, "imported-members": True, "undoc-members": True}
 autodoc_member_order = "alphabetical"
 html_theme = "alabaster"
+highlight_language = "none"  # the literal docstrings are math notation, not Python
 exclude_patterns = ["_build"]
 
 try:
