@@ -6,7 +6,8 @@ Usage: gen_cpp_docs.py OUT.inc HEADER...   (run by CMake at build time; python/C
 Each entry is {"Key", "header", R"(text)"}: Key is a declaration's name (`SolveFilterDare`,
 `DareSolution`) or, inside a struct or class, `Struct::member` (`DareSolution::P_pred`); the comment is
 the `///` block above the declaration or the `///<` comment after it (a data member without one,
-right below a documented member, shares that member's block). Overloads of one name are joined.
+right below a documented member, shares that member's block; a function without one, right below a
+documented result struct, shares the struct's). Overloads of one name are joined.
 python/src/cpp_docs.cpp appends these texts to the docstrings of the bindings that wrap the
 declarations, so the Python docstrings carry the C++ comments and cannot drift from them.
 """
@@ -56,6 +57,7 @@ def member_names(decl):
 def extract(path):
     """(key, text) for every documented declaration of one header."""
     entries, pending, group, scopes, depth = [], [], [], [], 0
+    struct_doc, last_struct_doc = {}, []  # a result struct's comment also documents the function right below
     lines = open(path, encoding="utf-8").read().splitlines()
     i = 0
     while i < len(lines):
@@ -68,7 +70,7 @@ def extract(path):
             continue
         if not stripped or stripped.startswith("//"):
             if not stripped:
-                pending, group = [], []
+                pending, group, last_struct_doc = [], [], []
             i += 1
             continue
         # A declaration: gather lines until it ends (';' or '{' or ')' + ';').
@@ -80,12 +82,15 @@ def extract(path):
         trailing = [l.split("///<", 1)[1].strip() for l in decl_lines if "///<" in l]
         name = declared_name(decl)
         scope = "::".join(s for s, _ in scopes)
+        if not pending and not trailing and not scopes and last_struct_doc and "(" in decl.split("=")[0]:
+            pending = last_struct_doc
+        last_struct_doc = []
         if pending:
             group = pending
         elif not trailing and scopes and "(" not in decl.split("=")[0]:
             pending = group  # a data member right below a documented one shares its comment
+        text = "\n".join(pending + trailing)
         if name and (pending or trailing) and not re.match(r"\s*k[A-Z]\w*\s*[,=]", decl):
-            text = "\n".join(pending + trailing)
             names = member_names(decl) or [name]
             if len(names) > 1:
                 text = ", ".join(names) + ": " + text
@@ -96,9 +101,12 @@ def extract(path):
         opened = decl.count("{") - decl.count("}")
         if m and opened > 0:
             scopes.append((m.group(2), depth))
+            struct_doc[m.group(2)] = text
         depth += opened
         while scopes and depth <= scopes[-1][1]:
-            scopes.pop()
+            closed = scopes.pop()[0]
+            if not scopes and struct_doc.get(closed):
+                last_struct_doc = struct_doc[closed].split("\n")
         i += 1
     return entries
 

@@ -28,8 +28,9 @@ const CppDoc kCppDocs[] = {
 
 // Python name -> C++ name where they differ beyond case and underscores.
 const std::map<std::string, std::string> kRenamed = {
-    {"kalman_schedule", "ComputeKalmanSchedule"},
-    {"sampled_model_at", "SampledModel"},
+    {"kalman_schedule", "ComputeKalmanSchedule"}, {"sampled_model_at", "SampledModel"},
+    {"parse_method", "ParseMethodSpec"},          {"spring_mass_chain", "BuildSpringMassChain"},
+    {"damped_wave", "BuildDampedWave"},
 };
 
 std::string Normalized(const std::string& name) {
