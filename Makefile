@@ -2,7 +2,8 @@
 #   make demo   install missing Debian packages (as root), build Release, run the main job
 #   make test   same set-up, build, run every test through ctest
 # More: make test-asan (ASan + UBSan unit tests), make test-install (install tests with clang++),
-# make test-readme (README's CMake recipe), make bench, make format-check, make install.
+# make test-readme (README's CMake recipe), make bench, make format-check, make install, make docs
+# (the Python API reference).
 SHELL := /bin/bash
 BUILD ?= build
 ASAN_BUILD ?= build-asan
@@ -124,6 +125,16 @@ fuzz: fuzz-build
 
 fuzz-smoke: fuzz-build
 	bash fuzz/run.sh $(FUZZ_BUILD) -max_total_time=$(FUZZ_SECONDS)
+
+# The Python API reference (docs/api/, Sphinx autodoc): only the Python module is built for it; the
+# docstrings carry the C++ doc comments (python/gen_cpp_docs.py). -W: a broken reference fails.
+.PHONY: docs
+docs: deps
+	@bash tools/install-deps.sh docs
+	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) > $(BUILD).configure.log 2>&1 || (cat $(BUILD).configure.log; exit 1)
+	cmake --build $(BUILD) -j$(JOBS) --target kfx_python
+	PYTHONPATH=$(BUILD)/python /usr/bin/python3 -m sphinx -b html -q -W --keep-going docs/api $(BUILD)/docs/html
+	@echo "kfx: API reference in $(BUILD)/docs/html/index.html"
 
 format-check:
 	@bash tools/install-deps.sh format

@@ -95,7 +95,7 @@ def signatures(obj):
 def summary(obj):
     doc = (obj.__doc__ or "").strip().splitlines()
     body = [ln for ln in doc if ln and not re.match(rf"^(\d+\. )?{re.escape(obj.__name__)}\(", ln)
-            and ln != "Overloaded function."]
+            and ln != "Overloaded function." and not ln.startswith("C++ (")]  # cpp_docs.cpp's heading
     return body[0].strip().replace('"""', "'") if body else ""
 
 

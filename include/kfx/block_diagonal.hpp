@@ -43,10 +43,10 @@ struct CoupledStep {
   Eigen::MatrixXd G;  ///< (n c) x r: G^(i) stacked, the coupling input matrices.
   Eigen::MatrixXd U;  ///< r x r symmetric PSD covariance of the coupling input u_k (U = 0 allowed).
 
-  Eigen::Index c() const { return F.rows(); }
-  Eigen::Index d() const { return H.rows(); }
-  Eigen::Index r() const { return G.cols(); }
-  Eigen::Index n() const { return F.rows() > 0 ? F.cols() / F.rows() : 0; }
+  Eigen::Index c() const { return F.rows(); }                                ///< state dimension of one subsystem
+  Eigen::Index d() const { return H.rows(); }                                ///< measurement dimension of one subsystem
+  Eigen::Index r() const { return G.cols(); }                                ///< dimension of the coupling input
+  Eigen::Index n() const { return F.rows() > 0 ? F.cols() / F.rows() : 0; }  ///< number of subsystems
 };
 
 /// The same (F, H, V, R, g) for all n subsystems; G = 1_n (x) g.
@@ -79,12 +79,12 @@ class CoupledSystem {
   CoupledSystem(Eigen::Index n, Eigen::Index c, Eigen::Index d, Eigen::Index r, StepFunction function,
                 Eigen::VectorXd m0, Eigen::MatrixXd P0_blocks, int horizon = -1);
 
-  Eigen::Index n() const { return n_; }
-  Eigen::Index c() const { return c_; }
-  Eigen::Index d() const { return d_; }
-  Eigen::Index r() const { return r_; }
-  Eigen::Index state_dim() const { return n_ * c_; }
-  Eigen::Index meas_dim() const { return n_ * d_; }
+  Eigen::Index n() const { return n_; }               ///< number of subsystems
+  Eigen::Index c() const { return c_; }               ///< state dimension of one subsystem
+  Eigen::Index d() const { return d_; }               ///< measurement dimension of one subsystem
+  Eigen::Index r() const { return r_; }               ///< dimension of the coupling input
+  Eigen::Index state_dim() const { return n_ * c_; }  ///< n c
+  Eigen::Index meas_dim() const { return n_ * d_; }   ///< n d
   bool time_invariant() const { return kind_ == detail::ScheduleKind::kInvariant; }
   int horizon() const { return horizon_; }
   /// Step k >= 1. @throws kfx::Error if k is out of range.
@@ -262,7 +262,7 @@ class CoupledFilter {
   Eigen::VectorXd x_next_, nu_;       // the block-diagonal step's x_k and innovation (reused)
 };
 
-struct CoupledRun {
+struct CoupledRun {       ///< A filter run over a coupled system: filtered means, coupling inputs, covariance trace.
   TimeSeries x_filt;      ///< (T+1) x (n c), row 0 the prior mean
   TimeSeries coupling;    ///< T x r: mu_u,k (block-diagonal kinds; empty otherwise)
   Eigen::VectorXd trace;  ///< length T+1: trace of the filter's own covariance
@@ -426,18 +426,18 @@ struct KroneckerStructured {
 /// ||A - B||_F of two structured matrices with the same n: sqrt(n |dX + dY|^2 + n (n - 1) |dY|^2).
 double FrobeniusDistance(const KroneckerStructured& a, const KroneckerStructured& b);
 
-struct IdenticalSubsystems {
+struct IdenticalSubsystems {         ///< n identical subsystems (state c, measurement d) coupled by an r-input.
   Eigen::MatrixXd F, H, V, R, g, U;  ///< c x c, d x c, c x c, d x d, c x r, r x r
 };
 
-struct IdenticalAnalysis {
+struct IdenticalAnalysis {  ///< Steady states of n identical coupled subsystems (004 Sec. 5), as I (x) X + 1 1^T (x) Y.
   KroneckerStructured full_P;       ///< P = P_+(V + G U G^T) of the full Kalman filter
   KroneckerStructured uncoupled_P;  ///< P_0 = P_+(V) (Y = 0)
   KroneckerStructured block_P;      ///< P~ = P~_+(V + G U G^T) (Y = 0)
   KroneckerStructured banded_P;     ///< P_+(D{V + G U G^T}) (Y = 0)
   KroneckerStructured block_gain;   ///< steady gain K~ (c x d blocks)
-  KroneckerStructured banded_gain;
-  KroneckerStructured full_gain;
+  KroneckerStructured banded_gain;  ///< steady gain of the banded filter
+  KroneckerStructured full_gain;    ///< steady gain of the full Kalman filter
   /// True stationary error covariances E[e e^T] of each filter's steady-state gain on the true
   /// system (empty X when the filter is unstable on a mode). The full filter's equals full_P.
   KroneckerStructured block_true, banded_true, full_true;

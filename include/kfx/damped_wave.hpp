@@ -56,7 +56,7 @@ struct WaveDiscretization {
 /// @throws kfx::Error on invalid options.
 WaveDiscretization DiscretizeDampedWave(int nodes, const DampedWaveOptions& options);
 
-struct DampedWaveProblem {
+struct DampedWaveProblem {       ///< The damped wave problem of 000: fine and coarse models, the subspace.
   WaveDiscretization fine;       ///< the "true" system
   WaveDiscretization coarse;     ///< the coarse Galerkin model (method C of Table 1)
   Eigen::MatrixXd prolongation;  ///< 2 N_f x 2 N_c: blkdiag(E, E), coarse nodal -> fine nodal

@@ -158,7 +158,7 @@ std::string HealthWarning(const FilterHealth& health, const KalmanFilterOptions&
 /// kfx::NumericalError when an estimate, covariance or likelihood term is not finite.
 FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options = {});
 
-struct SmootherRun {
+struct SmootherRun {               ///< The RTS smoother's estimates x_{k|T} and covariances P_{k|T}, k = 0..T.
   TimeSeries x;                    ///< (T+1) x n, row k = x_{k|T}
   TimeSeries P_diag;               ///< (T+1) x n
   std::vector<Eigen::MatrixXd> P;  ///< T+1 matrices P_{k|T}

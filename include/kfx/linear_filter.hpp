@@ -15,10 +15,10 @@
 
 namespace kfx {
 
-struct LinearFilterStep {
-  Eigen::MatrixXd Phi;  ///< n_z x n_z
-  Eigen::MatrixXd K;    ///< n_z x m
-  Eigen::MatrixXd O;    ///< n_out x n_z output map; empty means identity (n_out = n_z)
+struct LinearFilterStep {  ///< One step of a linear filter: z_k = Phi z_{k-1} + K y_k, estimate O z_k.
+  Eigen::MatrixXd Phi;     ///< n_z x n_z
+  Eigen::MatrixXd K;       ///< n_z x m
+  Eigen::MatrixXd O;       ///< n_out x n_z output map; empty means identity (n_out = n_z)
 };
 
 using LinearFilterStepPtr = std::shared_ptr<const LinearFilterStep>;
@@ -36,13 +36,13 @@ class LinearFilter {
   LinearFilter(Eigen::Index n_z, Eigen::Index m, Eigen::Index n_out, StepFunction function, Eigen::VectorXd z0,
                Eigen::MatrixXd O0, int horizon = -1);
 
-  Eigen::Index state_dim() const { return n_z_; }     ///< n_z
-  Eigen::Index meas_dim() const { return m_; }        ///< m
-  Eigen::Index output_dim() const { return n_out_; }  ///< n_out (the estimated state's dimension)
-  bool time_invariant() const { return kind_ == Kind::kInvariant; }
-  int horizon() const { return horizon_; }
-  LinearFilterStepPtr step(int k) const;
-  const Eigen::VectorXd& z0() const { return z0_; }
+  Eigen::Index state_dim() const { return n_z_; }                    ///< n_z
+  Eigen::Index meas_dim() const { return m_; }                       ///< m
+  Eigen::Index output_dim() const { return n_out_; }                 ///< n_out (the estimated state's dimension)
+  bool time_invariant() const { return kind_ == Kind::kInvariant; }  ///< one step for every k
+  int horizon() const { return horizon_; }                           ///< steps defined, -1 when unbounded
+  LinearFilterStepPtr step(int k) const;                             ///< the step k >= 1 (Phi_k, K_k, O_k)
+  const Eigen::VectorXd& z0() const { return z0_; }                  ///< initial filter state (length n_z)
   /// Output map at k = 0 (identity when empty and n_out == n_z).
   const Eigen::MatrixXd& O0() const { return O0_; }
 

@@ -31,8 +31,8 @@ struct ModelStep {
   Eigen::MatrixXd B;
   Eigen::MatrixXd U;  ///< p x p covariance of u_k (symmetric PSD); empty when B is empty.
 
-  Eigen::Index state_dim() const { return A.rows(); }
-  Eigen::Index meas_dim() const { return C.rows(); }
+  Eigen::Index state_dim() const { return A.rows(); }  ///< n
+  Eigen::Index meas_dim() const { return C.rows(); }   ///< m
 };
 
 /// A step with process noise covariance Q given directly.
@@ -67,16 +67,16 @@ class Model {
   Model(Eigen::Index n, Eigen::Index m, StepFunction function, Eigen::VectorXd m0, Eigen::MatrixXd P0,
         int horizon = -1);
 
-  Eigen::Index state_dim() const { return n_; }
-  Eigen::Index meas_dim() const { return m_; }
-  bool time_invariant() const { return kind_ == Kind::kInvariant; }
+  Eigen::Index state_dim() const { return n_; }                      ///< n
+  Eigen::Index meas_dim() const { return m_; }                       ///< m
+  bool time_invariant() const { return kind_ == Kind::kInvariant; }  ///< one step for every k
   /// Number of steps for which the model is defined, or -1 when unbounded (time-invariant or
   /// callback without horizon).
   int horizon() const { return horizon_; }
   /// The matrices of step k >= 1. @throws kfx::Error if k is out of range.
   StepPtr step(int k) const;
-  const Eigen::VectorXd& m0() const { return m0_; }
-  const Eigen::MatrixXd& P0() const { return P0_; }
+  const Eigen::VectorXd& m0() const { return m0_; }  ///< prior mean of x_0 (length n)
+  const Eigen::MatrixXd& P0() const { return P0_; }  ///< prior covariance of x_0 (n x n, symmetric PSD)
 
   /// Number of steps to run when the caller asks for `steps` (negative: the model's horizon).
   /// @throws kfx::Error if steps exceeds the horizon, or if both are unbounded.

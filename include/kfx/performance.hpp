@@ -34,10 +34,10 @@ struct PerformanceOptions {
   bool IsValid(std::string* error) const;
 };
 
-struct PerformanceResult {
-  Eigen::VectorXd mse;                        ///< length T+1: tr E[e_k e_k^T], k = 0..T
-  Eigen::VectorXd weighted_mse;               ///< length T+1: tr(W E[e_k e_k^T])
-  TimeSeries bias;                            ///< (T+1) x n: E[e_k]
+struct PerformanceResult {       ///< The exact error statistics of a linear filter against a true model, k = 0..T.
+  Eigen::VectorXd mse;           ///< length T+1: tr E[e_k e_k^T], k = 0..T
+  Eigen::VectorXd weighted_mse;  ///< length T+1: tr(W E[e_k e_k^T])
+  TimeSeries bias;               ///< (T+1) x n: E[e_k]
   std::vector<Eigen::MatrixXd> error_moment;  ///< E[e_k e_k^T], k = 0..T (if stored)
   Summary summary;                            ///< kConverged; iterations = T; seconds
 };
@@ -64,7 +64,7 @@ struct StationaryPerformanceOptions {
   bool IsValid(std::string* error) const;
 };
 
-struct StationaryPerformance {
+struct StationaryPerformance {  ///< Stationary error covariance of a time-invariant filter and truth.
   StationaryMethod method = StationaryMethod::kJoint;             ///< the equation solved (when summary.ok())
   Eigen::MatrixXd error_cov;                                      ///< stationary E[e e^T] (empty unless summary.ok())
   double mse = std::numeric_limits<double>::infinity();           ///< tr error_cov (inf when none)
@@ -131,8 +131,8 @@ struct MonteCarloOptions {
   bool IsValid(std::string* error) const;
 };
 
-struct MonteCarloResult {
-  int runs = 0;
+struct MonteCarloResult {                     ///< Monte Carlo error statistics of a filter over `runs` runs, k = 0..T.
+  int runs = 0;                               ///< number of simulated runs
   Eigen::VectorXd mse;                        ///< sample mean of |e_k|^2, k = 0..T
   Eigen::VectorXd mse_std_error;              ///< its standard error (sample std / sqrt(runs))
   Eigen::VectorXd weighted_mse;               ///< sample mean of e_k^T W e_k

@@ -64,8 +64,8 @@ class WeightSchedule {
   const Eigen::MatrixXd& at(int k) const;
   /// The pseudo-inverse L_k^+ = L_k^T (L_k L_k^T)^{-1} (an output map: L_k L_k^+ = I).
   const Eigen::MatrixXd& pinv_at(int k) const;
-  Eigen::Index rows() const { return rows_; }
-  Eigen::Index cols() const { return cols_; }
+  Eigen::Index rows() const { return rows_; }  ///< q, the rows of every L_k
+  Eigen::Index cols() const { return cols_; }  ///< n, the columns of every L_k
   int size() const { return static_cast<int>(L_.size()); }
 
  private:

@@ -125,8 +125,8 @@ struct LyapunovOptions {
   bool IsValid(std::string* error) const;
 };
 
-struct LyapunovSolution {
-  Eigen::MatrixXd X;  ///< n x n symmetric solution (the last values when the solve failed; may be empty)
+struct LyapunovSolution {  ///< The solution X (n x n) of a discrete Lyapunov equation, rho(A) and how the solve ended.
+  Eigen::MatrixXd X;       ///< n x n symmetric solution (the last values when the solve failed; may be empty)
   /// rho(A) from the Schur form (kSchur); NaN when the Smith iteration produced X.
   double spectral_radius = std::numeric_limits<double>::quiet_NaN();
   /// termination kConverged, kSingular (eigenvalue pair with lambda_i lambda_j ~= 1, or kSmith on an A
@@ -232,8 +232,8 @@ LyapunovSolution SolveGeneralizedDiscreteLyapunov(const Eigen::Ref<const Eigen::
                                                   const Eigen::Ref<const Eigen::MatrixXd>& E,
                                                   const Eigen::Ref<const Eigen::MatrixXd>& Q);
 
-struct SteinSolution {
-  Eigen::MatrixXd X;  ///< n x m (the last values when the solve failed)
+struct SteinSolution {  ///< The solution X (n x m) of a Stein (discrete Sylvester) equation and how the solve ended.
+  Eigen::MatrixXd X;    ///< n x m (the last values when the solve failed)
   /// termination kConverged, kSingular (lambda_i(A) lambda_j(B) ~= 1) or kFailed (QR failed); method
   /// "hessenberg-schur"; relative_residual = |A X B - X + C|_F / max(|X|_F, tiny).
   Summary summary;

@@ -42,11 +42,11 @@ struct SamplingBounds {
 };
 SamplingBounds EvaluateSamplingBounds(const BoundConstants& c, double T, int n, double E);
 
-struct ConvergencePoint {
-  int n = 0;
-  double tr_P = 0.0;  ///< tr P_{T,n}
-  double err = 0.0;   ///< tr P_{T,n} - tr P_c(T)
-  SamplingBounds bounds;
+struct ConvergencePoint {  ///< One sampling resolution n of a convergence study: tr P_{T,n}, its error and the bounds.
+  int n = 0;               ///< sampling intervals on [0, T]
+  double tr_P = 0.0;       ///< tr P_{T,n}
+  double err = 0.0;        ///< tr P_{T,n} - tr P_c(T)
+  SamplingBounds bounds;   ///< the error bounds at this n
 };
 
 struct ConvergenceStudyOptions {
@@ -55,10 +55,10 @@ struct ConvergenceStudyOptions {
   ProgressCallback progress{};
 };
 
-struct ConvergenceStudy {
-  double tr_Pc = 0.0;  ///< tr P_c(T) (Kalman-Bucy, doubling)
-  std::vector<ConvergencePoint> points;
-  double rate = 0.0;  ///< least-squares slope of log err vs log n over n >= rate_min_n
+struct ConvergenceStudy {                ///< Sampled filter vs Kalman-Bucy for growing n (003): points and the rate.
+  double tr_Pc = 0.0;                    ///< tr P_c(T) (Kalman-Bucy, doubling)
+  std::vector<ConvergencePoint> points;  ///< one per n
+  double rate = 0.0;                     ///< least-squares slope of log err vs log n over n >= rate_min_n
   BoundConstants constants;
 };
 

@@ -42,8 +42,8 @@ namespace kfx {
 struct Subspace {
   Eigen::MatrixXd gram;        ///< N x N symmetric positive definite W (empty: identity)
   Eigen::MatrixXd projection;  ///< n x N Pi, orthonormal in W: Pi W^{-1} Pi^T = I
-  Eigen::Index full_dim() const { return projection.cols(); }
-  Eigen::Index reduced_dim() const { return projection.rows(); }
+  Eigen::Index full_dim() const { return projection.cols(); }     ///< n, the full state dimension
+  Eigen::Index reduced_dim() const { return projection.rows(); }  ///< N, the subspace dimension
 };
 
 /// The subspace spanned by the columns of `basis` (N x n, full column rank), with coordinates
@@ -96,7 +96,7 @@ struct SubspaceFilterOptions {
   bool IsValid(std::string* error) const;
 };
 
-struct SubspaceFilterSchedule {
+struct SubspaceFilterSchedule {             ///< The offline part of the subspace filter (000): gains, output maps, P.
   std::vector<Eigen::MatrixXd> gain;        ///< K_k (N x m), k = 1..T (index 0 empty), if stored
   std::vector<Eigen::MatrixXd> output_map;  ///< Q_k (N x n), k = 0..T, if stored
   std::vector<Eigen::MatrixXd> P;           ///< P_k, k = 0..T, if store_covariances
@@ -104,7 +104,7 @@ struct SubspaceFilterSchedule {
   std::vector<Eigen::MatrixXd> M;           ///< M_k (21), k = 1..T (index 0 zero), same condition
   std::vector<int> pinv_rank;               ///< rank used for S~_k^+, k = 0..T
   // The last step T (the converged values when converged):
-  Eigen::MatrixXd K, Q, P_final, P_pred, S, S_tilde, V, M_final;
+  Eigen::MatrixXd K, Q, P_final, P_pred, S, S_tilde, V, M_final;  ///< at the last step T
   int steps = 0;          ///< T: the steps computed (fewer than asked for when the schedule failed)
   int converged_at = -1;  ///< first step of the final run of `patience` small changes
   /// max_k |P_k - P_k^{(20)}|_F / max(|P_k|_F, tiny) when rde_check (else 0).

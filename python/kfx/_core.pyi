@@ -11,6 +11,7 @@ class Error(ValueError): ...
 class NumericalError(ArithmeticError): ...
 
 class ApproximateSubspaceFilter:
+    """C++ (include/kfx/subspace_filter.hpp, ApproximateSubspaceFilter):"""
     A_r: numpy.ndarray
     C_r: numpy.ndarray
     Phi: numpy.ndarray
@@ -21,11 +22,13 @@ class ApproximateSubspaceFilter:
     summary: Summary
 
 class BlockDiagonalSteadyState:
+    """C++ (include/kfx/block_diagonal.hpp, BlockDiagonalSteadyState):"""
     P_filt: numpy.ndarray
     gain: numpy.ndarray
     summary: Summary
 
 class CareSolution:
+    """C++ (include/kfx/continuous.hpp, CareSolution):"""
     P: numpy.ndarray
     closed_loop_max_real: float
     refinement_steps: int
@@ -41,20 +44,23 @@ class ContinuousModel:
     R: numpy.ndarray
     def __init__(self: ContinuousModel, A: numpy.ndarray, *, B: Optional[numpy.ndarray] = None, C: numpy.ndarray, Q: Optional[numpy.ndarray] = None, R: numpy.ndarray, m0: numpy.ndarray, P0: numpy.ndarray) -> None: ...
     m0: numpy.ndarray
-    def process_noise(self: ContinuousModel) -> numpy.ndarray: ...
+    def process_noise(self: ContinuousModel) -> numpy.ndarray: """B Q B^T (p x p; zero when B has no columns)."""
 
 class ConvergencePoint:
+    """C++ (include/kfx/sampling_convergence.hpp, ConvergencePoint):"""
     bounds: SamplingBounds
     err: float
     n: int
     tr_P: float
 
 class ConvergenceStudy:
+    """C++ (include/kfx/sampling_convergence.hpp, ConvergenceStudy):"""
     points: List[ConvergencePoint]
     rate: float
     tr_Pc: float
 
 class CoupledRun:
+    """C++ (include/kfx/block_diagonal.hpp, CoupledRun):"""
     coupling: numpy.ndarray
     trace: numpy.ndarray
     x_filt: numpy.ndarray
@@ -86,9 +92,10 @@ class CoupledSystem:
     n: int
     r: int
     state_dim: int
-    def to_dense_model(self: CoupledSystem) -> Model: ...
+    def to_dense_model(self: CoupledSystem) -> Model: """The stacked system as a dense kfx::Model (prior P0 = blockdiag(P0_blocks)); time-varying systems"""
 
 class DampedWaveProblem:
+    """C++ (include/kfx/damped_wave.hpp, DampedWaveProblem):"""
     coarse: WaveDiscretization
     fine: WaveDiscretization
     prolongation: numpy.ndarray
@@ -111,6 +118,7 @@ class DareSolution:
     summary: Summary
 
 class DiscretizationBounds:
+    """C++ (include/kfx/subspace_filter.hpp, DiscretizationBounds):"""
     P_b: numpy.ndarray
     P_full: numpy.ndarray
     actual: float
@@ -172,6 +180,7 @@ class FilterRun:
     x_pred: numpy.ndarray
 
 class IdenticalAnalysis:
+    """C++ (include/kfx/block_diagonal.hpp, IdenticalAnalysis):"""
     banded_P: KroneckerStructured
     banded_gain: KroneckerStructured
     banded_true: KroneckerStructured
@@ -186,6 +195,7 @@ class IdenticalAnalysis:
     uncoupled_P: KroneckerStructured
 
 class IdenticalSubsystems:
+    """C++ (include/kfx/block_diagonal.hpp, IdenticalSubsystems):"""
     F: numpy.ndarray
     H: numpy.ndarray
     R: numpy.ndarray
@@ -195,6 +205,7 @@ class IdenticalSubsystems:
     g: numpy.ndarray
 
 class InvariantSubspaceBasis:
+    """C++ (include/kfx/reduced_order.hpp, InvariantSubspaceBasis):"""
     T: numpy.ndarray
     eigenvalues: numpy.ndarray
     invariance_residual: float
@@ -240,9 +251,9 @@ class KroneckerStructured:
     """I_n (x) X + 1 1^T (x) Y"""
     X: numpy.ndarray
     Y: numpy.ndarray
-    def dense(self: KroneckerStructured) -> numpy.ndarray: ...
-    def diagonal_block(self: KroneckerStructured) -> numpy.ndarray: ...
-    def mean_mode(self: KroneckerStructured) -> numpy.ndarray: ...
+    def dense(self: KroneckerStructured) -> numpy.ndarray: """(n a) x (n b) (moderate n)"""
+    def diagonal_block(self: KroneckerStructured) -> numpy.ndarray: """X + Y"""
+    def mean_mode(self: KroneckerStructured) -> numpy.ndarray: """X + n Y"""
     n: int
 
 class LinearFilter:
@@ -256,17 +267,19 @@ class LinearFilter:
     output_dim: int
     def run(self: LinearFilter, y: numpy.ndarray) -> numpy.ndarray: """The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out)."""
     state_dim: int
-    def step(self: LinearFilter, k: int) -> LinearFilterStep: ...
+    def step(self: LinearFilter, k: int) -> LinearFilterStep: """the step k >= 1 (Phi_k, K_k, O_k)"""
     time_invariant: bool
     z0: numpy.ndarray
 
 class LinearFilterStep:
+    """C++ (include/kfx/linear_filter.hpp, LinearFilterStep):"""
     K: numpy.ndarray
     O: numpy.ndarray
     Phi: numpy.ndarray
     def __init__(self: LinearFilterStep, Phi: numpy.ndarray, K: numpy.ndarray, O: Optional[numpy.ndarray] = None) -> None: ...
 
 class LyapunovSolution:
+    """C++ (include/kfx/riccati.hpp, LyapunovSolution):"""
     X: numpy.ndarray
     spectral_radius: float
     summary: Summary
@@ -286,7 +299,7 @@ class Model:
     state_dim: int
     def step(self: Model, k: int) -> ModelStep: """The matrices of step k >= 1."""
     time_invariant: bool
-    def with_prior(self: Model, m0: numpy.ndarray, P0: numpy.ndarray) -> Model: ...
+    def with_prior(self: Model, m0: numpy.ndarray, P0: numpy.ndarray) -> Model: """The same model with a different prior."""
 
 class ModelStep:
     """The matrices of one step: x_k = A x_{k-1} + w_k, w_k ~ N(0, Q) (or w_k = B u_k, u_k ~ N(0, U), Q = B U B^T); y_k = C x_k + v_k, v_k ~ N(0, R)."""
@@ -309,6 +322,7 @@ class ModelingErrors:
     def __init__(self: ModelingErrors, A: Optional[numpy.ndarray] = None, C: Optional[numpy.ndarray] = None, Q: Optional[numpy.ndarray] = None, R: Optional[numpy.ndarray] = None) -> None: ...
 
 class MonteCarloResult:
+    """C++ (include/kfx/performance.hpp, MonteCarloResult):"""
     bias: numpy.ndarray
     error_moment: numpy.ndarray
     mse: numpy.ndarray
@@ -319,6 +333,7 @@ class MonteCarloResult:
     weighted_mse_std_error: numpy.ndarray
 
 class PerformanceResult:
+    """C++ (include/kfx/performance.hpp, PerformanceResult):"""
     bias: numpy.ndarray
     error_moment: numpy.ndarray
     mse: numpy.ndarray
@@ -326,6 +341,7 @@ class PerformanceResult:
     weighted_mse: numpy.ndarray
 
 class ReducedOrderOneStep:
+    """C++ (include/kfx/reduced_order.hpp, ReducedOrderOneStep):"""
     Q: numpy.ndarray
     Qhat: numpy.ndarray
     cost: numpy.ndarray
@@ -334,6 +350,7 @@ class ReducedOrderOneStep:
     xi1: numpy.ndarray
 
 class ReducedOrderTwoStep:
+    """C++ (include/kfx/reduced_order.hpp, ReducedOrderTwoStep):"""
     cost_da: numpy.ndarray
     cost_f: numpy.ndarray
     singular_steps: List[int]
@@ -341,6 +358,7 @@ class ReducedOrderTwoStep:
     xi1: numpy.ndarray
 
 class SamplingBounds:
+    """C++ (include/kfx/sampling_convergence.hpp, SamplingBounds):"""
     corollary1: float
     theorem1: float
     theorem2: float
@@ -349,11 +367,13 @@ class SamplingBounds:
     theorem4: float
 
 class SmootherRun:
+    """C++ (include/kfx/kalman_filter.hpp, SmootherRun):"""
     P: numpy.ndarray
     P_diag: numpy.ndarray
     x: numpy.ndarray
 
 class StationaryMismatch:
+    """C++ (include/kfx/mismatch.hpp, StationaryMismatch):"""
     P: numpy.ndarray
     U: numpy.ndarray
     V: numpy.ndarray
@@ -364,6 +384,7 @@ class StationaryMismatch:
     true_spectral_radius: float
 
 class StationaryPerformance:
+    """C++ (include/kfx/performance.hpp, StationaryPerformance):"""
     error_cov: numpy.ndarray
     method: str
     mse: float
@@ -371,6 +392,7 @@ class StationaryPerformance:
     weighted_mse: float
 
 class SteinSolution:
+    """C++ (include/kfx/riccati.hpp, SteinSolution):"""
     X: numpy.ndarray
     summary: Summary
 
@@ -383,6 +405,7 @@ class Subspace:
     reduced_dim: int
 
 class SubspaceFilterSchedule:
+    """C++ (include/kfx/subspace_filter.hpp, SubspaceFilterSchedule):"""
     K: numpy.ndarray
     P_final: numpy.ndarray
     Q: numpy.ndarray
@@ -394,12 +417,14 @@ class SubspaceFilterSchedule:
     summary: Summary
 
 class SubspaceOneStep:
+    """C++ (include/kfx/reduced_order.hpp, SubspaceOneStep):"""
     cost: numpy.ndarray
     summary: Summary
     triangularity_defect: float
     xi1: numpy.ndarray
 
 class SubspaceTwoStep:
+    """C++ (include/kfx/reduced_order.hpp, SubspaceTwoStep):"""
     cost_da: numpy.ndarray
     cost_f: numpy.ndarray
     summary: Summary
@@ -408,10 +433,10 @@ class SubspaceTwoStep:
 
 class Summary:
     """How a solver or long computation ended: the one outcome shape of kfx. Numerical outcomes (no convergence, a singular equation, lost definiteness, an unstable system) are reported here, never raised; invalid input raises kfx.Error."""
-    def brief_report(self: Summary) -> str: ...
+    def brief_report(self: Summary) -> str: """One line: "<computation>: <termination> by <method>, N iterations, relative residual r, t s"."""
     computation: str
     details: dict
-    def full_report(self: Summary) -> str: ...
+    def full_report(self: Summary) -> str: """A table of every field and detail, one per line."""
     iterations: int
     message: str
     method: str
@@ -422,6 +447,7 @@ class Summary:
     termination: str
 
 class UpdateResult:
+    """C++ (include/kfx/kalman_filter.hpp, UpdateResult):"""
     estimate: Estimate
     gain: numpy.ndarray
     innovation: numpy.ndarray
@@ -430,6 +456,7 @@ class UpdateResult:
     observed: List[int]
 
 class WaveDiscretization:
+    """C++ (include/kfx/damped_wave.hpp, WaveDiscretization):"""
     gram: numpy.ndarray
     load: numpy.ndarray
     mass: numpy.ndarray
@@ -441,7 +468,7 @@ class WaveDiscretization:
 class WeightSchedule:
     """001: L_k (q x n, full row rank): one matrix or one per step."""
     def __init__(self: WeightSchedule, L: object) -> None: ...
-    def at(self: WeightSchedule, k: int) -> numpy.ndarray: ...
+    def at(self: WeightSchedule, k: int) -> numpy.ndarray: """L_k for k >= 1 (k = 0 gives L_1). Raises kfx.Error if k is beyond a time-varying schedule."""
     cols: int
     rows: int
 
@@ -451,15 +478,15 @@ def apply_modeling_errors(design: ModelStep, errors: ModelingErrors) -> ModelSte
 
 def approximate_subspace_filter(truth: ModelStep, S: numpy.ndarray, subspace: Subspace, measurement_noise_from_residual: bool = False) -> ApproximateSubspaceFilter: """000 Sec. 6.1: the approximate reduced model and its steady-state filter."""
 
-def approximate_subspace_filter_as_linear_filter(approx: ApproximateSubspaceFilter, z0: numpy.ndarray) -> LinearFilter: ...
+def approximate_subspace_filter_as_linear_filter(approx: ApproximateSubspaceFilter, z0: numpy.ndarray) -> LinearFilter: """Raises kfx.Error unless approx.summary.ok()."""
 
-def block_diagonal_to_dense(blocks: numpy.ndarray, block_cols: int) -> numpy.ndarray: ...
+def block_diagonal_to_dense(blocks: numpy.ndarray, block_cols: int) -> numpy.ndarray: """The dense (n a) x (n b) block-diagonal matrix of packed blocks (a x (n b))."""
 
 def compare(model: object, methods: List[str], steps: int = 100, stationary: bool = False, weight: Optional[numpy.ndarray] = None, monte_carlo: int = 0, seed: int = 1) -> list: """The rows of `kfx compare` (docs/cli.md): model is a kfx.Model or a model-file path (a coupled model file for blockdiag/banded); methods are specifications. Returns one dict per method (pandas.DataFrame(rows) takes the list), each with the optimal Kalman filter's kalman_mse and kalman_stationary_mse; 'headline' is the stationary MSE with stationary=True, else the MSE at T. kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures."""
 
 def constant_gain_as_linear_filter(design: ModelStep, filter_gain: numpy.ndarray, z0: numpy.ndarray) -> LinearFilter: """Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain)."""
 
-def converged_subspace_filter_as_linear_filter(truth: ModelStep, subspace: Subspace, schedule: SubspaceFilterSchedule, m0: numpy.ndarray) -> LinearFilter: ...
+def converged_subspace_filter_as_linear_filter(truth: ModelStep, subspace: Subspace, schedule: SubspaceFilterSchedule, m0: numpy.ndarray) -> LinearFilter: """The converged (time-invariant) filter from the schedule's last K, Q:"""
 
 def coupled_filter_as_linear_filter(system: CoupledSystem, kind: str, steps: int) -> LinearFilter: """The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance."""
 
@@ -475,11 +502,11 @@ def discretize_zoh(A: numpy.ndarray, B: numpy.ndarray, dt: float) -> tuple: """Z
 
 def exact_performance(truth: Model, filter: LinearFilter, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = True) -> PerformanceResult: """The exact mean-square error of any linear filter on any true model (the one engine every kfx method reports through), e_k = x_k - O_k z_k."""
 
-def exact_stationary_performance(truth: Model, filter: LinearFilter, weight: Optional[numpy.ndarray] = None) -> StationaryPerformance: ...
+def exact_stationary_performance(truth: Model, filter: LinearFilter, weight: Optional[numpy.ndarray] = None) -> StationaryPerformance: """Stationary error of a time-invariant filter on a time-invariant model."""
 
 def filter_dare_residual(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, P: numpy.ndarray, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None) -> float: """Relative residual of a candidate P of the filter DARE (with S and E: |A P A^T - E P E^T + Q - K_p W K_p^T|_F / |E P E^T|_F)."""
 
-def frobenius_distance(a: KroneckerStructured, b: KroneckerStructured) -> float: ...
+def frobenius_distance(a: KroneckerStructured, b: KroneckerStructured) -> float: """||A - B||_F of two structured matrices with the same n: sqrt(n |dX + dY|^2 + n (n - 1) |dY|^2)."""
 
 def kalman_as_linear_filter(model: Model, steps: int = -1) -> LinearFilter: """The Kalman filter of `model` as a LinearFilter: Phi_k = (I - K_k C_k) A_k, gain K_k, z_0 = m0."""
 
@@ -487,19 +514,19 @@ def kalman_bucy_covariance(model: ContinuousModel, T: float) -> numpy.ndarray: "
 
 def kalman_costs(model: Model, L: WeightSchedule, steps: int) -> tuple: """Full-order Kalman costs (predictor, filter): tr(L_k P_{k|k-1} L_k^T), tr(L_k P_{k|k} L_k^T)."""
 
-def kalman_schedule(model: Model, steps: int = -1) -> KalmanSchedule: ...
+def kalman_schedule(model: Model, steps: int = -1) -> KalmanSchedule: """Raises kfx.Error on invalid options or steps beyond the horizon; kfx.NumericalError (a recursion)"""
 
 def least_damped_subspace(A: numpy.ndarray, n_r: int) -> InvariantSubspaceBasis: """The n_r least damped modes of A (ordered real Schur form), canonical basis T = [V_r, V_s]."""
 
-def log_log_slope(x: List[float], y: List[float], x_min: float) -> float: ...
+def log_log_slope(x: List[float], y: List[float], x_min: float) -> float: """Least-squares slope of log y against log x over the points with x >= x_min and y > 0"""
 
 def make_identical_coupled_step(n: int, F: numpy.ndarray, H: numpy.ndarray, V: numpy.ndarray, R: numpy.ndarray, g: numpy.ndarray, U: numpy.ndarray) -> CoupledStep: """n identical subsystems, G = 1_n (x) g."""
 
-def matrix_exponential(M: numpy.ndarray) -> numpy.ndarray: ...
+def matrix_exponential(M: numpy.ndarray) -> numpy.ndarray: """e^M by Eigen's scaling-and-squaring Pade approximant (unsupported/MatrixFunctions)."""
 
 def mismatched_covariance_sequence(design: Model, truth: Model, steps: int) -> dict: """002 (15)-(19) over k = 0..T: dict with P, V, U (T+1, n, n), filter_gain (T, n, m), trace (T+1,)."""
 
-def modeling_errors_between(design: ModelStep, truth: ModelStep) -> ModelingErrors: ...
+def modeling_errors_between(design: ModelStep, truth: ModelStep) -> ModelingErrors: """design - truth, for two steps of the same dimensions and the same noise input G (both without"""
 
 def monte_carlo_performance(truth: Model, filter: LinearFilter, runs: int = 1000, seed: int = 1, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = False) -> MonteCarloResult: """Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`)."""
 
@@ -519,7 +546,7 @@ def reduced_order_one_step_as_linear_filter(schedule: ReducedOrderOneStep, L: We
 
 def reduced_order_two_step(model: Model, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> ReducedOrderTwoStep: """001 Sec. III: the two-step (data assimilation + forecast) filter."""
 
-def reduced_order_two_step_as_linear_filter(schedule: ReducedOrderTwoStep, L: WeightSchedule, output: str = 'data_assimilation') -> LinearFilter: ...
+def reduced_order_two_step_as_linear_filter(schedule: ReducedOrderTwoStep, L: WeightSchedule, output: str = 'data_assimilation') -> LinearFilter: """The two-step filter as a LinearFilter with state z_k = (xi^da_k, xi^f_k): step 1 is"""
 
 def reproduce(paper: str, quick: bool = False, out_dir: str = '') -> list: """A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data for figures goes (kfx.plots.render(out_dir) draws them)."""
 
@@ -533,11 +560,11 @@ def run_kalman_bucy(model: ContinuousModel, T: float, dy: numpy.ndarray, substep
 
 def sampled_filter_covariance(model: ContinuousModel, T: float, n: int) -> numpy.ndarray: """P_{T,n}: the sampled filter's error covariance of z(T)."""
 
-def sampled_filter_estimate(model: ContinuousModel, T: float, dy: numpy.ndarray) -> numpy.ndarray: ...
+def sampled_filter_estimate(model: ContinuousModel, T: float, dy: numpy.ndarray) -> numpy.ndarray: """The sampled filter on increments dy over the grid i T / n (n = dy.rows()): returns z_{T,n}."""
 
 def sampled_model(model: ContinuousModel, T: float, n: int) -> Model: """The model sampled at t_i = i T / n (augmented state [z; int z], exact) as a kfx.Model."""
 
-def sampled_model_at(model: ContinuousModel, times: List[float]) -> Model: ...
+def sampled_model_at(model: ContinuousModel, times: List[float]) -> Model: """The sampled model at times 0 < t_1 < ... < t_n (strictly increasing, finite) as a"""
 
 def search_error_box(design: ModelStep, ranges: ErrorRanges, refine: bool = True) -> dict: """002 Sec. 6: the largest true tr P of the design's filter and the smallest optimal tr P_F over the box."""
 
@@ -547,7 +574,7 @@ def simulate_continuous(model: ContinuousModel, T: float, N: int, seed: int = 1)
 
 def simulate_coupled(system: CoupledSystem, steps: int, seed: int = 1) -> tuple: """Returns (x (T+1, n c), y (T, n d), u (T, r))."""
 
-def solve_block_diagonal_steady_state(step: CoupledStep, max_iterations: int = 100000, tolerance: float = 1e-13) -> BlockDiagonalSteadyState: ...
+def solve_block_diagonal_steady_state(step: CoupledStep, max_iterations: int = 100000, tolerance: float = 1e-13) -> BlockDiagonalSteadyState: """Raises kfx.Error on an invalid step or options. Numerical outcomes are in summary."""
 
 def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray, method: str = 'auto') -> LyapunovSolution: """X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared Smith iteration when it converges, else 'schur'), 'schur' (SLICOT SB03MD) or 'smith'. Returns a LyapunovSolution; a singular equation is .summary.termination 'singular', never raised."""
 
@@ -559,7 +586,7 @@ def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: n
 
 def solve_generalized_discrete_lyapunov(A: numpy.ndarray, E: numpy.ndarray, Q: numpy.ndarray) -> LyapunovSolution: """A X A^T - E X E^T + Q = 0 (python-control dlyap(A, Q, None, E)) by SLICOT SG03AD. Returns a LyapunovSolution; a reciprocal eigenvalue pair of the pencil (A, E) is .summary.termination 'singular'."""
 
-def spectral_radius(A: numpy.ndarray) -> float: ...
+def spectral_radius(A: numpy.ndarray) -> float: """Spectral radius max |lambda_i(A)| (eigenvalues by LAPACK DGEEV; 0 for a 0 x 0 matrix)."""
 
 def spring_mass_chain(N: int, mass: float = 1.0, k: float = 1.0, c: float = 0.0, left_fixed: bool = True, right_fixed: bool = True, dt: float = 0.1, first_mass: int = 0) -> dict: """001 Fig. 1: a uniform chain of N masses; dict with Ac, Ad = e^{Ac dt}, K, D, order."""
 
@@ -575,19 +602,19 @@ def subspace_from_basis(basis: numpy.ndarray, gram: numpy.ndarray) -> Subspace: 
 
 def subspace_one_step(model: Model, T: numpy.ndarray, n_r: int, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> SubspaceOneStep: """001 Sec. IV (4.10)-(4.13): the one-step subspace estimator."""
 
-def subspace_one_step_as_linear_filter(schedule: SubspaceOneStep, T: numpy.ndarray, n_r: int) -> LinearFilter: ...
+def subspace_one_step_as_linear_filter(schedule: SubspaceOneStep, T: numpy.ndarray, n_r: int) -> LinearFilter: """As ReducedOrderOneStepAsLinearFilter, with output V_r xi_k."""
 
 def subspace_two_step(model: Model, T: numpy.ndarray, n_r: int, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> SubspaceTwoStep: """001 (4.16)-(4.20): the two-step subspace estimator."""
 
-def subspace_two_step_as_linear_filter(schedule: SubspaceTwoStep, T: numpy.ndarray, n_r: int, output: str = 'data_assimilation') -> LinearFilter: ...
+def subspace_two_step_as_linear_filter(schedule: SubspaceTwoStep, T: numpy.ndarray, n_r: int, output: str = 'data_assimilation') -> LinearFilter: """As ReducedOrderTwoStepAsLinearFilter, with outputs V_r xi."""
 
 def theorem1_bound(design: ModelStep, errors: ModelingErrors) -> dict: """002 Theorem 1: tr P <= pi1 for known errors (26 corrected); 'summary' says whether it exists."""
 
 def theorem2_bound(truth: ModelStep) -> float: """002 Theorem 2: tr P_F >= pi2 (optimal filter)."""
 
-def triangularity_defect(A: numpy.ndarray, T: numpy.ndarray, n_r: int) -> float: ...
+def triangularity_defect(A: numpy.ndarray, T: numpy.ndarray, n_r: int) -> float: """|A'_sr|_F / |A'|_F of T^{-1} A T: zero for a block upper-triangular form."""
 
-def unknown_input_spectral_radius(system: IdenticalSubsystems) -> float: ...
+def unknown_input_spectral_radius(system: IdenticalSubsystems) -> float: """Whether the full Kalman filter "decouples" as n -> infinity (004 Sec. 3.1). The mean mode carries"""
 
 def update(prior: Estimate, step: ModelStep, y: numpy.ndarray, update_form: str = 'joseph') -> UpdateResult: """Measurement update with y (NaN entries are missing); Joseph form by default."""
 

@@ -226,6 +226,9 @@ def compare_error_vs_time(k, curves, kalman=None, ax=None, title="true error aga
 
 
 def read_csv(path):
+    """The rows of a CSV file with a header line, as a list of dicts (column name -> text).
+
+    Raises OSError if the file cannot be read."""
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
 
@@ -423,6 +426,8 @@ def render(*dirs):
 
 
 def main(argv):
+    """Command line `python3 -m kfx.plots DIR [DIR ...]`: draws the figures of each `kfx reproduce --out
+    DIR` directory into it. Returns the exit status (2 on a usage error)."""
     if len(argv) < 2:
         print("usage: python3 -m kfx.plots DIR [DIR ...]  (figures of kfx reproduce --out DIR)", file=sys.stderr)
         return 2

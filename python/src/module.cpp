@@ -10,7 +10,8 @@
 
 namespace kfx::python {
 
-void BindCompare(py::module_& m);  // bind_compare.cpp: method_spec.hpp, compare.hpp
+void BindCompare(py::module_& m);    // bind_compare.cpp: method_spec.hpp, compare.hpp
+void AttachCppDocs(py::module_& m);  // cpp_docs.cpp: the C++ doc comments appended to the docstrings
 
 namespace {
 
@@ -66,4 +67,5 @@ PYBIND11_MODULE(_core, m) {
   BindBlockDiagonal(m);
   BindCompare(m);
   BindReproduce(m);
+  AttachCppDocs(m);
 }

@@ -1,4 +1,5 @@
-"""Shared fixtures of the kfx pytest suite (run by ctest with PYTHONPATH=build/python)."""
+"""Shared fixtures of the kfx pytest suite (run by ctest in the venv where python_pip_install put kfx;
+without a venv, with PYTHONPATH=build/python)."""
 import os
 import shutil
 

@@ -19,7 +19,8 @@ def test_type_stubs_match_the_module(tmp_path):
 def test_docstrings_are_present():
     import kfx
 
-    for name in ("run_filter", "solve_filter_dare", "exact_performance", "reproduce", "KalmanFilter",
-                 "run_coupled_filter", "stationary_mismatched_covariance", "study_convergence",
-                 "reduced_order_one_step", "subspace_filter_schedule"):
-        assert len(getattr(kfx, name).__doc__ or "") > 40, name
+    for obj in (kfx.run_filter, kfx.solve_filter_dare, kfx.exact_performance, kfx.reproduce, kfx.KalmanFilter,
+                kfx.blockdiag.run_coupled_filter, kfx.mismatch.stationary_mismatched_covariance,
+                kfx.continuous.study_convergence, kfx.reduced.reduced_order_one_step,
+                kfx.subspace.subspace_filter_schedule):
+        assert len(obj.__doc__ or "") > 40, obj
