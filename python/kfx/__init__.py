@@ -18,8 +18,9 @@ Submodule kfx.plots (matplotlib) draws results and the papers' figures.
 from . import _core
 from ._core import *  # noqa: F401,F403  (the compiled core: every public name)
 from ._core import Error, NumericalError, __version__  # noqa: F401
+from ._filterpy import KalmanFilter  # noqa: F401  (the FilterPy drop-in: compiled core + Python layer)
 
-__all__ = [name for name in dir(_core) if not name.startswith("_")] + ["plots", "__version__"]
+__all__ = [name for name in dir(_core) if not name.startswith("_")] + ["KalmanFilter", "plots", "__version__"]
 
 
 def __getattr__(name):
