@@ -273,7 +273,11 @@ void FilterPyKalmanFilter::set_alpha(double a) {
 // ---- measurements and inputs -------------------------------------------------------------------------
 
 Eigen::VectorXd FilterPyKalmanFilter::Measurement(py::handle z, Eigen::Index k, const char* name) const {
-  if (IsNumber(z) && k == 1) return Eigen::VectorXd::Constant(1, z.cast<double>());
+  if (IsNumber(z) && k == 1) {
+    const double v = z.cast<double>();
+    if (std::isinf(v)) throw Error(std::string(name) + ": expected finite entries (NaN: missing), got inf");
+    return Eigen::VectorXd::Constant(1, v);
+  }
   const py::array a = ToArray(z, name);
   const bool ok = (a.ndim() == 0 && k == 1) || (a.ndim() == 1 && a.shape(0) == k) ||
                   (a.ndim() == 2 && ((a.shape(0) == k && a.shape(1) == 1) || (a.shape(0) == 1 && a.shape(1) == k)));
