@@ -34,32 +34,30 @@ py::tuple FilterPyKalmanFilter::BatchFilter(py::handle zs, py::handle Fs, py::ha
                                             py::handle saver) {
   // The measurements: a (T, m), (T, m, 1) or (T,) (m = 1) float array, or a sequence whose items are
   // measurements or None.
-  std::vector<std::optional<Eigen::VectorXd>> z;
+  // (T x m, row i = zs[i]; has[i] == 0: None).
   const py::ssize_t T = py::len(zs);
-  z.reserve(static_cast<size_t>(T));
+  RowMat Z(T, m_);
+  std::vector<char> has(static_cast<size_t>(T), 1);
   if (IsPlainArray(zs)) {
     const auto a = py::reinterpret_borrow<py::array>(zs);
     if (a.size() != T * m_ || (a.ndim() == 1 && m_ != 1) || a.ndim() > 3 || (a.ndim() >= 2 && a.shape(1) != m_)) {
       throw Error("zs: expected shape (T, " + std::to_string(m_) + ") or (T, " + std::to_string(m_) +
                   ", 1), got shape " + NumpyShapeString(a));
     }
-    const double* d = static_cast<const double*>(a.data());
-    for (py::ssize_t i = 0; i < T; ++i) {
-      z.emplace_back(Eigen::Map<const Eigen::VectorXd>(d + i * m_, m_));
-      if (z.back()->array().isInf().any()) throw Error("zs[" + std::to_string(i) + "]: expected finite entries (NaN: missing)");
-    }
+    Z = Eigen::Map<const RowMat>(static_cast<const double*>(a.data()), T, m_);
+    if (Z.array().isInf().any()) throw Error("zs: expected finite entries (NaN: missing), got inf");
   } else {
-    size_t i = 0;
+    py::ssize_t i = 0;
     for (py::handle item : zs) {
       if (item.is_none()) {
-        z.emplace_back(std::nullopt);
+        has[static_cast<size_t>(i)] = 0;
       } else {
-        z.emplace_back(Measurement(item, m_, ("zs[" + std::to_string(i) + "]").c_str()));
+        Z.row(i) = Measurement(item, m_, ("zs[" + std::to_string(i) + "]").c_str()).transpose();
       }
       ++i;
     }
   }
-  const size_t steps = z.size();
+  const size_t steps = static_cast<size_t>(T);
   // Per-step matrices (FilterPy's predict(Q=q) and update(R=r) read a number as q I, r I).
   auto list = [&](py::handle v, const char* name, Eigen::Index rows, Eigen::Index cols, Scalar scalar) {
     std::vector<RowMat> out;
@@ -85,7 +83,22 @@ py::tuple FilterPyKalmanFilter::BatchFilter(py::handle zs, py::handle Fs, py::ha
   }
   const RowMat F0 = slots_[kF].View("F"), Q0 = slots_[kQ].View("Q"), H0 = slots_[kH].View("H"),
                R0 = slots_[kR].View("R");
-  // Outputs: means (T, n) for a 1-D x, (T, n, 1) for a column x; covariances (T, n, n).
+  for (int a = 0; a < kNumAttrs; ++a)
+    if (a != kF && a != kH && a != kQ && a != kR && a != kB && a != kM) slots_[a].Settle(Name(a));
+  const bool with_saver = !saver.is_none();
+  // FilterPy's default call (one F, H, Q, R; no control input, no fading memory; predict first, no saver)
+  // is kfx's own filter run (kfx::RunFilter and its small-size kernels), without the GIL; then the last
+  // update once more here, for the attributes it leaves (y, S, K, z). Anything else, or matrices a
+  // kfx::Model refuses (an R that is only semidefinite), runs the loop below.
+  std::optional<FilterRun> library;
+  if (!with_saver && F.empty() && Q.empty() && H.empty() && R.empty() && us.is_none() && Bs.is_none() &&
+      !update_first && alpha_sq_ == 1.0 && steps > 0) {
+    py::gil_scoped_release release;
+    library = LibraryRun(Z, has, F0, H0, Q0, R0);
+  }
+  // Outputs: means (T, n) for a 1-D x, (T, n, 1) for a column x; covariances (T, n, n). Allocated after
+  // the library's run, so that its buffers are freed below them: freed at the heap's top they would be
+  // returned to the system and faulted in again by the next call (2-6x the time of a 1000-step run).
   const bool vector = slots_[kX].vector;
   const auto ti = static_cast<py::ssize_t>(steps);
   std::vector<py::ssize_t> mshape = {ti, n_};
@@ -93,11 +106,13 @@ py::tuple FilterPyKalmanFilter::BatchFilter(py::handle zs, py::handle Fs, py::ha
   py::array_t<double> means(mshape), means_p(mshape), covs({ti, n_, n_}), covs_p({ti, n_, n_});
   double *mu = means.mutable_data(), *mu_p = means_p.mutable_data(), *cv = covs.mutable_data(),
          *cv_p = covs_p.mutable_data();
-  for (int a = 0; a < kNumAttrs; ++a)
-    if (a != kF && a != kH && a != kQ && a != kR && a != kB && a != kM) slots_[a].Settle(Name(a));
-  const bool with_saver = !saver.is_none();
+  if (library) {
+    PublishLibraryRun(*library, Z, has, H0, R0, mu, cv, mu_p, cv_p);
+    return py::make_tuple(means, covs, means_p, covs_p);
+  }
   py::object save = with_saver ? saver.attr("save") : py::object();
 
+  Eigen::VectorXd zi(m_);
   auto run = [&] {
     for (size_t i = 0; i < steps; ++i) {
       const CRef Fi = F.empty() ? CRef(F0) : CRef(F[i]), Qi = Q.empty() ? CRef(Q0) : CRef(Q[i]);
@@ -108,7 +123,8 @@ py::tuple FilterPyKalmanFilter::BatchFilter(py::handle zs, py::handle Fs, py::ha
         std::copy(slots_[kP].value.data(), slots_[kP].value.data() + n_ * n_, P_out + i * n_ * n_);
       };
       auto update = [&](double* x_out, double* P_out) {
-        UpdateStep(z[i], Hi, Ri, nullptr);
+        zi = Z.row(static_cast<Eigen::Index>(i)).transpose();
+        UpdateStep(has[i] ? &zi : nullptr, Hi, Ri, nullptr);
         std::copy(slots_[kX].value.data(), slots_[kX].value.data() + n_, x_out + i * n_);
         std::copy(slots_[kP].value.data(), slots_[kP].value.data() + n_ * n_, P_out + i * n_ * n_);
       };
@@ -134,42 +150,38 @@ py::tuple FilterPyKalmanFilter::BatchFilter(py::handle zs, py::handle Fs, py::ha
     run();
   } else {
     py::gil_scoped_release release;
-    // FilterPy's default call (one F, H, Q, R; no control input, no fading memory; predict first) is
-    // kfx's own filter run (kfx::RunFilter and its small-size kernels), then the last update once more
-    // here, for the attributes it leaves (y, S, K, z). Anything else, or matrices a kfx::Model refuses
-    // (an R that is only semidefinite), runs the loop above.
-    if (!(F.empty() && Q.empty() && H.empty() && R.empty() && us.is_none() && Bs.is_none() && !update_first &&
-          alpha_sq_ == 1.0 && steps > 0 && LibraryRun(z, F0, H0, Q0, R0, mu, cv, mu_p, cv_p))) {
-      run();
-    }
+    run();
   }
   return py::make_tuple(means, covs, means_p, covs_p);
 }
 
-bool FilterPyKalmanFilter::LibraryRun(const std::vector<std::optional<Eigen::VectorXd>>& z, const RowMat& F,
-                                      const RowMat& H, const RowMat& Q, const RowMat& R, double* mu, double* cv,
-                                      double* mu_p, double* cv_p) {
-  const Eigen::Index T = static_cast<Eigen::Index>(z.size());
+std::optional<FilterRun> FilterPyKalmanFilter::LibraryRun(const RowMat& Z, const std::vector<char>& has,
+                                                          const RowMat& F, const RowMat& H, const RowMat& Q,
+                                                          const RowMat& R) {
+  const Eigen::Index T = Z.rows();
   std::optional<Model> model;
   try {
     model.emplace(MakeStep(F, H, Q, R), Eigen::VectorXd(slots_[kX].value), Eigen::MatrixXd(slots_[kP].value));
   } catch (const Error&) {
-    return false;
+    return std::nullopt;
   }
-  TimeSeries y(T, m_);
-  for (Eigen::Index i = 0; i < T; ++i) {
-    y.row(i) = z[i] ? Eigen::RowVectorXd(z[i]->transpose())
-                    : Eigen::RowVectorXd::Constant(m_, std::numeric_limits<double>::quiet_NaN());
-  }
+  TimeSeries y = Z;
+  for (Eigen::Index i = 0; i < T; ++i)
+    if (!has[static_cast<size_t>(i)]) y.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
   FilterRunOptions options;
   options.filter.update_form = joseph_ ? CovarianceUpdateForm::kJoseph : CovarianceUpdateForm::kStandard;
   options.store_covariances = true;
-  FilterRun run;
   try {
-    run = RunFilter(*model, y, options);
+    return RunFilter(*model, y, options);
   } catch (const NumericalError& e) {
     throw NumericalError(std::string("batch_filter: ") + e.what());
   }
+}
+
+void FilterPyKalmanFilter::PublishLibraryRun(const FilterRun& run, const RowMat& Z, const std::vector<char>& has,
+                                             const RowMat& H, const RowMat& R, double* mu, double* cv, double* mu_p,
+                                             double* cv_p) {
+  const Eigen::Index T = Z.rows();
   const Eigen::Index nn = n_ * n_;
   for (Eigen::Index i = 0; i < T; ++i) {
     Eigen::Map<Eigen::RowVectorXd>(mu + i * n_, n_) = run.x_filt.row(i + 1);
@@ -181,10 +193,10 @@ bool FilterPyKalmanFilter::LibraryRun(const std::vector<std::optional<Eigen::Vec
   slots_[kX].value = run.x_pred.row(T).transpose();
   slots_[kP].value = run.P_pred.back();
   Publish(slots_[kX].value, slots_[kP].value, kXPrior, kPPrior);
-  UpdateStep(z.back(), H, R, nullptr);
+  const Eigen::VectorXd last = Z.row(T - 1).transpose();
+  UpdateStep(has.back() ? &last : nullptr, H, R, nullptr);
   Eigen::Map<RowMat>(mu + (T - 1) * n_, n_, 1) = slots_[kX].value;
   Eigen::Map<RowMat>(cv + (T - 1) * nn, n_, n_) = slots_[kP].value;
-  return true;
 }
 
 py::tuple FilterPyKalmanFilter::RtsSmoother(py::handle Xs, py::handle Ps, py::handle Fs, py::handle Qs) {

@@ -24,7 +24,8 @@ std::string Shape(Eigen::Index rows, Eigen::Index cols) {
   return "(" + std::to_string(rows) + ", " + std::to_string(cols) + ")";
 }
 
-void SymmetrizeInPlace(RowMat& S) {
+template <typename Mat>
+void SymmetrizeInPlace(Mat& S) {
   for (Eigen::Index i = 0; i < S.rows(); ++i) {
     for (Eigen::Index j = i + 1; j < S.cols(); ++j) {
       const double v = 0.5 * (S(i, j) + S(j, i));
@@ -42,7 +43,8 @@ Eigen::Map<const RowMat> MapArray(const py::array& a, Eigen::Index rows, Eigen::
 
 // K = B S^-1 for S = L L^T (L: the lower triangle of `llt`), row by row: K_i^T solves L L^T k = B_i^T.
 // Plain substitution: at the sizes of a FilterPy filter a BLAS triangular solve costs more in its call.
-void CholeskySolveRows(const RowMat& llt, const RowMat& B, RowMat& K) {
+template <typename Mat>
+void CholeskySolveRows(const Mat& llt, const Mat& B, Mat& K) {
   const Eigen::Index m = llt.rows();
   K.resize(B.rows(), m);
   for (Eigen::Index r = 0; r < B.rows(); ++r) {
@@ -57,6 +59,78 @@ void CholeskySolveRows(const RowMat& llt, const RowMat& B, RowMat& K) {
       K(r, i) = v / llt(i, i);
     }
   }
+}
+
+// Up to this size the steps run on matrices with a compile-time maximum size (no heap allocation, Eigen's
+// coefficient-based products): most of a FilterPy filter's time at n = 4 is otherwise call overhead.
+constexpr Eigen::Index kSmallMax = 8;
+using SmallMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, kSmallMax, kSmallMax>;
+
+// x_out = F x + bu, P_out = a2 F P F^T + Q (symmetrized).
+template <typename Mat>
+void PredictKernel(const CRef& x, const CRef& P, const CRef& F, const CRef& Q, const Eigen::VectorXd& bu, double a2,
+                   RowMat& x_out, RowMat& P_out) {
+  const Mat Fm = F, Pm = P, xm = x;
+  Mat xo = Fm * xm;
+  if (bu.size() != 0) xo += bu;
+  const Mat FP = Fm * Pm;
+  Mat Po = FP * Fm.transpose();
+  if (a2 != 1.0) Po *= a2;
+  Po += Q;
+  SymmetrizeInPlace(Po);
+  x_out = xo;
+  P_out = Po;
+}
+
+// The update of (x, P) with rows `obs` of (z, H, R) (M: the cross-covariance, may be null). With
+// B = P H^T + M: S = H B + M^T H^T + R, K = B S^-1, and Joseph's form (I - K H) P (I - K H)^T + K R K^T
+// [- (I - K H) M K^T - K M^T (I - K H)^T] expanded, P - K B^T + (K S - B) K^T: exact for any K, first-order
+// insensitive to an error in K as the product form is, in O(n^2 m) instead of O(n^3). False when S is not
+// positive definite.
+template <typename Mat>
+bool CorrectKernel(const CRef& x, const CRef& P, const Eigen::VectorXd& z, const CRef& H, const CRef& R,
+                   const RowMat* M, const std::vector<Eigen::Index>& obs, bool joseph, RowMat& x_out, RowMat& P_out,
+                   RowMat& y_out, RowMat& S_out, RowMat& K_out) {
+  const Eigen::Index n = P.rows(), k = static_cast<Eigen::Index>(obs.size());
+  Mat Hs(k, n), Rs(k, k), y(k, 1), Ms;
+  for (Eigen::Index i = 0; i < k; ++i) {
+    Hs.row(i) = H.row(obs[i]);
+    y(i, 0) = z(obs[i]);
+    for (Eigen::Index j = 0; j < k; ++j) Rs(i, j) = R(obs[i], obs[j]);
+  }
+  const Mat Pm = P, xm = x;
+  y.noalias() -= Hs * xm;
+  Mat B = Pm * Hs.transpose();
+  Mat S = Hs * B;
+  S += Rs;
+  if (M) {
+    Ms.resize(n, k);
+    for (Eigen::Index i = 0; i < k; ++i) Ms.col(i) = M->col(obs[i]);
+    S.noalias() += Hs * Ms;
+    S.noalias() += Ms.transpose() * Hs.transpose();
+    B += Ms;
+  }
+  SymmetrizeInPlace(S);
+  const Eigen::LLT<Mat> llt(S);
+  if (llt.info() != Eigen::Success) return false;
+  Mat K;
+  CholeskySolveRows<Mat>(llt.matrixLLT(), B, K);
+  Mat xo = xm;
+  xo.noalias() += K * y;
+  Mat Po = Pm;
+  Po.noalias() -= K * B.transpose();
+  if (joseph) {
+    Mat T = -B;
+    T.noalias() += K * S;
+    Po.noalias() += T * K.transpose();
+  }
+  SymmetrizeInPlace(Po);
+  x_out = xo;
+  P_out = Po;
+  y_out = y;
+  S_out = S;
+  K_out = K;
+  return true;
 }
 
 }  // namespace
@@ -245,7 +319,7 @@ void FilterPyKalmanFilter::Set(int a, py::handle v, bool check) {
 void FilterPyKalmanFilter::EnsureSI() {
   if (!si_stale_) return;
   RowMat SI = RowMat::Constant(m_, m_, kNaN);
-  const RowMat inv = s_llt_.solve(RowMat::Identity(s_llt_.rows(), s_llt_.rows()));
+  const RowMat inv = Eigen::LLT<RowMat>(S_).solve(RowMat::Identity(S_.rows(), S_.rows()));
   for (size_t i = 0; i < observed_.size(); ++i)
     for (size_t j = 0; j < observed_.size(); ++j) SI(observed_[i], observed_[j]) = inv(i, j);
   SI_.Put(SI);
@@ -320,13 +394,8 @@ void FilterPyKalmanFilter::Prediction(const CRef& F, const CRef& Q, const Eigen:
                                       RowMat& P_out) {
   const auto x = slots_[kX].View("x");
   const auto P = slots_[kP].View("P");
-  x_out.noalias() = F * x;
-  if (bu.size() != 0) x_out += bu;
-  FP_.noalias() = F * P;
-  P_out.noalias() = FP_ * F.transpose();
-  if (alpha_sq_ != 1.0) P_out *= alpha_sq_;
-  P_out += Q;
-  SymmetrizeInPlace(P_out);
+  if (n_ <= kSmallMax) return PredictKernel<SmallMat>(x, P, F, Q, bu, alpha_sq_, x_out, P_out);
+  PredictKernel<RowMat>(x, P, F, Q, bu, alpha_sq_, x_out, P_out);
 }
 
 void FilterPyKalmanFilter::Correction(const Eigen::VectorXd& z, const CRef& H, const CRef& R, const RowMat* M,
@@ -334,55 +403,15 @@ void FilterPyKalmanFilter::Correction(const Eigen::VectorXd& z, const CRef& H, c
                                       RowMat& P_out) {
   const auto x = slots_[kX].View("x");
   const auto P = slots_[kP].View("P");
-  const bool all = static_cast<Eigen::Index>(obs.size()) == H.rows();
-  const Eigen::Index k = static_cast<Eigen::Index>(obs.size());
-  if (!all) {
-    Ho_.resize(k, n_), Ro_.resize(k, k), y_.resize(k, 1);
-    for (Eigen::Index i = 0; i < k; ++i) {
-      Ho_.row(i) = H.row(obs[i]);
-      y_(i, 0) = z(obs[i]);
-      for (Eigen::Index j = 0; j < k; ++j) Ro_(i, j) = R(obs[i], obs[j]);
-    }
-    if (M) {
-      Mo_.resize(n_, k);
-      for (Eigen::Index i = 0; i < k; ++i) Mo_.col(i) = M->col(obs[i]);
-    }
-  }
-  const CRef Hs = all ? H : CRef(Ho_);
-  const CRef Rs = all ? R : CRef(Ro_);
-  const RowMat* Ms = M ? (all ? M : &Mo_) : nullptr;
-  if (all) y_ = z;
-  y_.noalias() -= Hs * x;
-  PHt_.noalias() = P * Hs.transpose();
-  S_.noalias() = Hs * PHt_;
-  S_ += Rs;
-  if (Ms) {
-    S_.noalias() += Hs * *Ms;
-    S_.noalias() += Ms->transpose() * Hs.transpose();
-    PHt_ += *Ms;
-  }
-  SymmetrizeInPlace(S_);
-  s_llt_.compute(S_);
-  if (s_llt_.info() != Eigen::Success) {
+  const bool small = n_ <= kSmallMax && static_cast<Eigen::Index>(obs.size()) <= kSmallMax;
+  const bool ok = small ? CorrectKernel<SmallMat>(x, P, z, H, R, M, obs, joseph, x_out, P_out, y_, S_, K_)
+                        : CorrectKernel<RowMat>(x, P, z, H, R, M, obs, joseph, x_out, P_out, y_, S_, K_);
+  if (!ok) {
     throw NumericalError(
-        "update: the innovation covariance S = H P H^T + R" + std::string(Ms ? " + H M + M^T H^T" : "") +
+        "update: the innovation covariance S = H P H^T + R" + std::string(M ? " + H M + M^T H^T" : "") +
         " is not positive definite (check that R > 0 and P >= 0); FilterPy would invert it and go on with a "
         "covariance that is no longer positive semidefinite, kfx stops");
   }
-  CholeskySolveRows(s_llt_.matrixLLT(), PHt_, K_);
-  x_out = x;
-  x_out.noalias() += K_ * y_;
-  // With B = P H^T + M (PHt_): Joseph's (I - K H) P (I - K H)^T + K R K^T [- (I - K H) M K^T - K M^T (I - K H)^T]
-  // expanded, P - K B^T - B K^T + K S K^T = P - K B^T + (K S - B) K^T: exact for any K, first-order
-  // insensitive to an error in K as the product form is, in O(n^2 m) instead of O(n^3).
-  P_out = P;
-  P_out.noalias() -= K_ * PHt_.transpose();
-  if (joseph) {
-    T_ = -PHt_;
-    T_.noalias() += K_ * S_;
-    P_out.noalias() += T_ * K_.transpose();
-  }
-  SymmetrizeInPlace(P_out);
 }
 
 void FilterPyKalmanFilter::Publish(const RowMat& x, const RowMat& P, int x_slot, int P_slot) {
@@ -443,10 +472,11 @@ void FilterPyKalmanFilter::Update(py::handle z, py::handle R, py::handle H, bool
     Ma = slots_[kM].View("M");
     if (Ma.cols() != k) throw Error("M: expected " + std::to_string(k) + " columns (the rows of H), got " + std::to_string(Ma.cols()));
   }
-  UpdateStep(Measurement(z, k, "z"), Hr, Rr, correlated ? &Ma : nullptr);
+  const Eigen::VectorXd zv = Measurement(z, k, "z");
+  UpdateStep(&zv, Hr, Rr, correlated ? &Ma : nullptr);
 }
 
-void FilterPyKalmanFilter::UpdateStep(const std::optional<Eigen::VectorXd>& z, const CRef& H, const CRef& R,
+void FilterPyKalmanFilter::UpdateStep(const Eigen::VectorXd* z, const CRef& H, const CRef& R,
                                       const RowMat* M) {
   if (!z) return SkipUpdate();
   const Eigen::VectorXd& zv = *z;
@@ -581,9 +611,8 @@ py::tuple FilterPyKalmanFilter::GetUpdate(py::handle z) {
     if (!std::isnan(zv(i))) obs.push_back(i);
   RowMat x = slots_[kX].View("x"), P = slots_[kP].View("P");
   if (!obs.empty()) {
-    const Eigen::LLT<RowMat> keep = s_llt_;  // SI belongs to the last update
+    EnsureSI();  // SI belongs to the last update (Correction overwrites the scratch S_)
     Correction(zv, slots_[kH].View("H"), slots_[kR].View("R"), nullptr, obs, true, x, P);
-    s_llt_ = keep;
   }
   return py::make_tuple(StateArray(x, slots_[kX].vector), StateArray(P, false));
 }

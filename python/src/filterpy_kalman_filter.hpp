@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "kfx/kalman_filter.hpp"
 #include "kfx/model.hpp"
 
 namespace kfx::python {
@@ -96,11 +97,14 @@ class FilterPyKalmanFilter {
   Eigen::VectorXd ControlInput(py::handle u, py::handle B);
   // The steps on values (no Python object touched: batch_filter runs them without the GIL).
   void PredictStep(const CRef& F, const CRef& Q, const Eigen::VectorXd& bu);
-  void UpdateStep(const std::optional<Eigen::VectorXd>& z, const CRef& H, const CRef& R, const RowMat* M);
+  void UpdateStep(const Eigen::VectorXd* z, const CRef& H, const CRef& R, const RowMat* M);  // z null: None
   void SkipUpdate();
-  // batch_filter's common case through kfx::RunFilter (filterpy_batch.cpp); false: not applicable.
-  bool LibraryRun(const std::vector<std::optional<Eigen::VectorXd>>& z, const RowMat& F, const RowMat& H,
-                  const RowMat& Q, const RowMat& R, double* mu, double* cv, double* mu_p, double* cv_p);
+  // batch_filter's common case through kfx::RunFilter (filterpy_batch.cpp; nullopt: not applicable),
+  // then its outputs and the attributes of its last step.
+  std::optional<FilterRun> LibraryRun(const RowMat& Z, const std::vector<char>& has, const RowMat& F,
+                                      const RowMat& H, const RowMat& Q, const RowMat& R);
+  void PublishLibraryRun(const FilterRun& run, const RowMat& Z, const std::vector<char>& has, const RowMat& H,
+                         const RowMat& R, double* mu, double* cv, double* mu_p, double* cv_p);
   void ResetLikelihoods() { log_likelihood_.reset(), likelihood_.reset(), mahalanobis_.reset(); }
   void EnsureSI();
   // x_out = F x + bu, P_out = alpha^2 F P F^T + Q (symmetrized), from the current x, P.
@@ -117,13 +121,12 @@ class FilterPyKalmanFilter {
   bool si_stale_ = false;
   double alpha_sq_ = 1.0;
   bool joseph_ = true;
-  // The factor of the last update's S over its observed rows `observed_` (for SI); FilterPy's lazy
+  // The observed rows of the last update (its S over them is S_, for SI); FilterPy's lazy
   // log_likelihood, likelihood, mahalanobis (nullopt: computed on the next read).
-  Eigen::LLT<RowMat> s_llt_;
   std::vector<Eigen::Index> observed_, obs_;
   std::optional<double> log_likelihood_, likelihood_, mahalanobis_;
   // Scratch of one step (sized once: no allocation per step).
-  RowMat x1_, P1_, FP_, PHt_, Ho_, Ro_, Mo_, y_, S_, K_, IKH_, T_;
+  RowMat x1_, P1_, y_, S_, K_;
 };
 
 }  // namespace kfx::python
