@@ -23,7 +23,7 @@ import warnings as _warnings
 from . import _core
 from . import blockdiag, continuous, mismatch, reduced, subspace  # noqa: F401
 from ._core import (  # noqa: F401  (the core, listed so that editors and type checkers see it)
-    DareSolution, Error, Estimate, FilterHealth, FilterRun, KalmanFilter, KalmanSchedule, LinearFilter,
+    DareSolution, Error, Estimate, FilterHealth, FilterRun, KalmanSchedule, LinearFilter,
     LinearFilterStep, LyapunovSolution, Model, ModelStep, MonteCarloResult, NumericalError, PerformanceResult,
     SmootherRun, StationaryPerformance, SteinSolution, Summary, UpdateResult, __version__, compare,
     constant_gain_as_linear_filter, discretize_process_noise, discretize_zoh, exact_performance,
@@ -32,6 +32,7 @@ from ._core import (  # noqa: F401  (the core, listed so that editors and type c
     run_filter, simulate, solve_discrete_lyapunov, solve_discrete_sylvester, solve_filter_dare,
     solve_generalized_discrete_lyapunov, spectral_radius, update,
 )
+from ._filterpy import KalmanFilter  # noqa: F401  (the FilterPy drop-in: compiled core + Python layer)
 
 _SUBMODULES = ("blockdiag", "continuous", "mismatch", "reduced", "subspace")
 # Old top-level name -> its submodule (issue 21; the aliases go in the release after 0.3).
@@ -42,7 +43,7 @@ _UNPLACED = [n for n in dir(_core) if not n.startswith("_") and n not in _MOVED 
 globals().update({n: getattr(_core, n) for n in _UNPLACED})
 
 __all__ = sorted(n for n in dir(_core) if not n.startswith("_") and n not in _MOVED)
-__all__ += list(_SUBMODULES) + ["plots", "__version__"]
+__all__ += ["KalmanFilter"] + list(_SUBMODULES) + ["plots", "__version__"]
 
 
 def __getattr__(name):

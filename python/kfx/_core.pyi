@@ -212,35 +212,6 @@ class InvariantSubspaceBasis:
     n_r: int
     other_eigenvalues: numpy.ndarray
 
-class KalmanFilter:
-    """A Kalman filter with FilterPy's names: KalmanFilter(dim_x, dim_z) starts with F = I, H = 0, Q = I, R = I, x = 0, P = I; set the attributes, then call predict()/update(z), or batch_filter(zs) and rts_smoother(Xs, Ps). Differences to FilterPy (docs/python.md): x is 1-D (n,); batch_filter predicts before each update (x, P are the estimate at k = 0, the first measurement is of x_1); NaN entries of z are missing measurements; every assignment is validated (kfx.Error, a ValueError, naming the attribute)."""
-    F: numpy.ndarray
-    H: numpy.ndarray
-    K: numpy.ndarray
-    P: numpy.ndarray
-    P_post: numpy.ndarray
-    P_prior: numpy.ndarray
-    Q: numpy.ndarray
-    R: numpy.ndarray
-    S: numpy.ndarray
-    @typing.overload
-    def __init__(self: KalmanFilter, dim_x: int, dim_z: int) -> None: ...
-    @typing.overload
-    def __init__(self: KalmanFilter, model: Model) -> None: ...
-    def batch_filter(self: KalmanFilter, zs: numpy.ndarray, update_state: bool = True) -> tuple: """Filters zs (T, m) in one call (kfx.run_filter): returns (means (T, n), covariances (T, n, n), means_p, covariances_p), predicted then updated for each row; x, P end at the last estimate."""
-    dim_x: int
-    dim_z: int
-    log_likelihood: float
-    def predict(self: KalmanFilter) -> None: """x = F x, P = F P F^T + Q."""
-    def rts_smoother(self: KalmanFilter, Xs: numpy.ndarray, Ps: numpy.ndarray) -> tuple: """Rauch-Tung-Striebel smoother over filtered (Xs (T, n), Ps (T, n, n)) with this F, Q: returns (x, P, K, Pp) as FilterPy (K: smoother gains, Pp: predicted covariances F P F^T + Q)."""
-    def to_model(self: KalmanFilter) -> Model: """The time-invariant kfx.Model (F, H, Q, R, x, P)."""
-    def update(self: KalmanFilter, z: object) -> None: """Measurement update with z (m,) (or a number when dim_z = 1); NaN entries are missing (all NaN: no update)."""
-    update_form: str
-    x: numpy.ndarray
-    x_post: numpy.ndarray
-    x_prior: numpy.ndarray
-    y: numpy.ndarray
-
 class KalmanSchedule:
     """The offline part: gains and covariances, k = 1..T."""
     P_filt: numpy.ndarray

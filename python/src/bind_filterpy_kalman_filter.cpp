@@ -1,247 +1,108 @@
-// kfx._core: kfx.KalmanFilter, a Kalman filter with FilterPy's names and call style (dim_x, dim_z, F, H,
-// predict(), update(z), batch_filter, rts_smoother) over kfx::Predict / kfx::Update / kfx::RunFilter /
-// kfx::RtsSmooth (include/kfx/kalman_filter.hpp).
-#include <limits>
+// kfx._core._KalmanFilter: the compiled part of kfx.KalmanFilter, the drop-in for
+// filterpy.kalman.KalmanFilter 1.4.5 (filterpy_kalman_filter.hpp; the Python subclass
+// python/kfx/_filterpy.py adds __repr__, test_matrix_dimensions, measurement_of_state, pickling).
 #include <string>
-#include <utility>
-#include <vector>
 
 #include "bindings.hpp"
+#include "filterpy_kalman_filter.hpp"
 #include "kfx/enum_text.hpp"
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
-#include "kfx/model.hpp"
-#include "kfx/validation.hpp"
 
 namespace kfx::python {
-namespace {
-
-// Holds the step (F, H, Q, R), the estimate (x, P) and what FilterPy users read after each call (K, y,
-// S, log_likelihood, x_prior, ...). The arithmetic is kfx::Predict / kfx::Update.
-class PyKalmanFilter {
- public:
-  PyKalmanFilter(Eigen::Index dim_x, Eigen::Index dim_z) {
-    if (dim_x < 1) throw Error("dim_x: expected >= 1, got " + std::to_string(dim_x));
-    if (dim_z < 1) throw Error("dim_z: expected >= 1, got " + std::to_string(dim_z));
-    n_ = dim_x;
-    m_ = dim_z;
-    step_ = MakeStep(Eigen::MatrixXd::Identity(n_, n_), Eigen::MatrixXd::Zero(m_, n_),
-                     Eigen::MatrixXd::Identity(n_, n_), Eigen::MatrixXd::Identity(m_, m_));
-    est_ = Estimate{Eigen::VectorXd::Zero(n_), Eigen::MatrixXd::Identity(n_, n_)};
-    prior_ = post_ = est_;
-    K_ = Eigen::MatrixXd::Zero(n_, m_);
-    y_ = Eigen::VectorXd::Zero(m_);
-    S_ = Eigen::MatrixXd::Zero(m_, m_);
-  }
-  explicit PyKalmanFilter(const Model& model) : PyKalmanFilter(model.state_dim(), model.meas_dim()) {
-    if (!model.time_invariant()) throw Error("model: expected a time-invariant model (use kfx.run_filter)");
-    const StepPtr s = model.step(1);
-    step_ = MakeStep(s->A, s->C, s->Q, s->R);
-    est_ = Estimate{model.m0(), model.P0()};
-    prior_ = post_ = est_;
-  }
-
-  Eigen::Index dim_x() const { return n_; }
-  Eigen::Index dim_z() const { return m_; }
-  // Copies, never views: the next predict/update replaces the buffers.
-  Eigen::VectorXd x() const { return est_.x; }
-  Eigen::MatrixXd P() const { return est_.P; }
-  Eigen::MatrixXd F() const { return step_.A; }
-  Eigen::MatrixXd H() const { return step_.C; }
-  Eigen::MatrixXd Q() const { return step_.Q; }
-  Eigen::MatrixXd R() const { return step_.R; }
-
-  void set_x(const Eigen::MatrixXd& x) {
-    if (!((x.cols() == 1 && x.rows() == n_) || (x.rows() == 1 && x.cols() == n_)))
-      throw Error("x: expected shape (" + std::to_string(n_) + ",) or (" + std::to_string(n_) + ", 1), got " +
-                  ShapeString(x));
-    RequireFinite("x", x);
-    est_.x = x.reshaped();
-  }
-  void set_P(const Eigen::MatrixXd& P) {
-    RequireShape("P", P, n_, n_);
-    RequirePositiveSemidefinite("P", P);
-    est_.P = P;
-  }
-  void set_F(const Eigen::MatrixXd& F) {
-    RequireShape("F", F, n_, n_);
-    RequireFinite("F", F);
-    step_.A = F;
-  }
-  void set_H(const Eigen::MatrixXd& H) {
-    RequireShape("H", H, m_, n_);
-    RequireFinite("H", H);
-    step_.C = H;
-  }
-  void set_Q(const Eigen::MatrixXd& Q) {
-    RequireShape("Q", Q, n_, n_);
-    RequirePositiveSemidefinite("Q", Q);
-    step_.Q = Q;
-  }
-  void set_R(const Eigen::MatrixXd& R) {
-    RequireShape("R", R, m_, m_);
-    RequirePositiveDefinite("R", R);
-    step_.R = R;
-  }
-
-  void predict() {
-    est_ = Predict(est_, step_, options_);
-    prior_ = est_;
-  }
-  void update(const Eigen::Ref<const Eigen::VectorXd>& z) {
-    if (z.size() != m_) {
-      throw Error("z: expected a measurement of length " + std::to_string(m_) + " (dim_z), got length " +
-                  std::to_string(z.size()));
-    }
-    UpdateResult r = Update(est_, step_, z, options_);
-    const bool all = static_cast<Eigen::Index>(r.observed.size()) == m_;
-    if (all) {
-      y_ = std::move(r.innovation);
-      K_ = std::move(r.gain);
-      S_ = std::move(r.innovation_cov);
-    } else {  // scatter the observed entries back (NaN / zero elsewhere)
-      y_.setConstant(m_, std::numeric_limits<double>::quiet_NaN());
-      K_.setZero(n_, m_);
-      S_.setConstant(m_, m_, std::numeric_limits<double>::quiet_NaN());
-      for (size_t i = 0; i < r.observed.size(); ++i) {
-        y_(r.observed[i]) = r.innovation(static_cast<Eigen::Index>(i));
-        K_.col(r.observed[i]) = r.gain.col(static_cast<Eigen::Index>(i));
-        for (size_t j = 0; j < r.observed.size(); ++j)
-          S_(r.observed[i], r.observed[j]) =
-              r.innovation_cov(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
-      }
-    }
-    log_likelihood_ = r.log_likelihood;
-    est_ = std::move(r.estimate);
-    post_ = est_;
-  }
-
-  Model AsModel() const { return Model(step_, est_.x, est_.P); }
-
-  // FilterPy's tuple (means, covariances, means_p, covariances_p), time-major, k = 1..T.
-  py::tuple batch_filter(const TimeSeries& zs, bool update_state) {
-    if (zs.cols() != m_)
-      throw Error("zs: expected shape (T, " + std::to_string(m_) + "), got " + ShapeString(zs.rows(), zs.cols()));
-    FilterRunOptions opt;
-    opt.filter = options_;
-    FilterRun run = RunFilter(AsModel(), zs, opt);
-    const Eigen::Index T = zs.rows();
-    TimeSeries means = run.x_filt.bottomRows(T), means_p = run.x_pred.bottomRows(T);
-    if (update_state && T > 0) {
-      est_ = Estimate{run.x_filt.row(T).transpose(), run.P_filt.back()};
-      prior_ = Estimate{run.x_pred.row(T).transpose(), run.P_pred.back()};
-      post_ = est_;
-      log_likelihood_ = run.log_likelihood_terms(T - 1);
-    }
-    return py::make_tuple(means, Stack(run.P_filt, 1), means_p, Stack(run.P_pred, 1));
-  }
-
-  // FilterPy's rts_smoother(Xs, Ps): (x, P, K, Pp) over the T filtered estimates given.
-  py::tuple rts_smoother(const TimeSeries& Xs, const py::array& Ps_array) const {
-    const Eigen::Index T = Xs.rows();
-    if (Xs.cols() != n_)
-      throw Error("Xs: expected shape (T, " + std::to_string(n_) + "), got " + ShapeString(T, Xs.cols()));
-    std::vector<Eigen::MatrixXd> Ps = Unstack(Ps_array, "Ps");
-    if (static_cast<Eigen::Index>(Ps.size()) != T || (T > 0 && (Ps[0].rows() != n_ || Ps[0].cols() != n_)))
-      throw Error("Ps: expected shape (" + std::to_string(T) + ", " + std::to_string(n_) + ", " + std::to_string(n_) +
-                  ")");
-    if (T == 0) throw Error("Xs: expected at least one estimate");
-    for (Eigen::Index k = 0; k < T; ++k) RequirePositiveSemidefinite("Ps[" + std::to_string(k) + "]", Ps[k]);
-    RequireFinite("Xs", Xs);
-    // A filter run whose prior is the first estimate: x_pred, P_pred recomputed from F, Q.
-    FilterRun run;
-    run.x_filt = Xs;
-    run.x_pred = Xs;
-    run.P_filt = Ps;
-    run.P_pred.resize(static_cast<size_t>(T));
-    run.P_pred[0] = Ps[0];
-    for (Eigen::Index k = 1; k < T; ++k) {
-      run.x_pred.row(k) = (step_.A * Xs.row(k - 1).transpose()).transpose();
-      run.P_pred[k] = step_.A * Ps[k - 1] * step_.A.transpose() + step_.Q;
-    }
-    const Model model(step_, Xs.row(0).transpose(), Ps[0]);
-    SmootherRun sm = RtsSmooth(model, run);
-    // Smoother gains G_k = P_{k|k} F^T P_{k+1|k}^{-1} (FilterPy's K), zero for the last estimate.
-    std::vector<Eigen::MatrixXd> G(static_cast<size_t>(T), Eigen::MatrixXd::Zero(n_, n_));
-    for (Eigen::Index k = 0; k + 1 < T; ++k)
-      G[k] = run.P_pred[k + 1].completeOrthogonalDecomposition().solve(step_.A * Ps[k]).transpose();
-    std::vector<Eigen::MatrixXd> Pp(static_cast<size_t>(T));
-    for (Eigen::Index k = 0; k < T; ++k) Pp[k] = step_.A * Ps[k] * step_.A.transpose() + step_.Q;
-    return py::make_tuple(sm.x, Stack(sm.P), Stack(G), Stack(Pp));
-  }
-
-  KalmanFilterOptions options_;
-  Eigen::Index n_ = 0, m_ = 0;
-  ModelStep step_;
-  Estimate est_, prior_, post_;
-  Eigen::MatrixXd K_, S_;
-  Eigen::VectorXd y_;
-  double log_likelihood_ = 0.0;
-};
-
-}  // namespace
 
 void BindFilterPyKalmanFilter(py::module_& m) {
-  py::class_<PyKalmanFilter>(
-      m, "KalmanFilter",
-      "A Kalman filter with FilterPy's names: KalmanFilter(dim_x, dim_z) starts with F = I, H = 0, Q = I, R = I, "
-      "x = 0, P = I; set the attributes, then call predict()/update(z), or batch_filter(zs) and "
-      "rts_smoother(Xs, Ps). Differences to FilterPy (docs/python.md): x is 1-D (n,); batch_filter predicts "
-      "before each update (x, P are the estimate at k = 0, the first measurement is of x_1); NaN entries of z "
-      "are missing measurements; every assignment is validated (kfx.Error, a ValueError, naming the "
-      "attribute).")
-      .def(py::init<Eigen::Index, Eigen::Index>(), py::arg("dim_x"), py::arg("dim_z"))
-      .def(py::init<const Model&>(), py::arg("model"), "From a time-invariant kfx.Model (x = m0, P = P0).")
-      .def_property_readonly("dim_x", &PyKalmanFilter::dim_x)
-      .def_property_readonly("dim_z", &PyKalmanFilter::dim_z)
-      .def_property("x", &PyKalmanFilter::x, &PyKalmanFilter::set_x, "state estimate, shape (n,)")
-      .def_property("P", &PyKalmanFilter::P, &PyKalmanFilter::set_P, "covariance (n, n)")
-      .def_property("F", &PyKalmanFilter::F, &PyKalmanFilter::set_F, "state transition (kfx's A)")
-      .def_property("H", &PyKalmanFilter::H, &PyKalmanFilter::set_H, "measurement matrix (kfx's C)")
-      .def_property("Q", &PyKalmanFilter::Q, &PyKalmanFilter::set_Q, "process noise covariance")
-      .def_property("R", &PyKalmanFilter::R, &PyKalmanFilter::set_R, "measurement noise covariance")
-      .def_property_readonly(
-          "K", [](const PyKalmanFilter& f) { return f.K_; }, "filter gain of the last update")
-      .def_property_readonly(
-          "y", [](const PyKalmanFilter& f) { return f.y_; }, "innovation of the last update")
-      .def_property_readonly(
-          "S", [](const PyKalmanFilter& f) { return f.S_; }, "innovation covariance")
-      .def_property_readonly("log_likelihood", [](const PyKalmanFilter& f) { return f.log_likelihood_; })
-      .def_property_readonly("x_prior", [](const PyKalmanFilter& f) { return f.prior_.x; })
-      .def_property_readonly("P_prior", [](const PyKalmanFilter& f) { return f.prior_.P; })
-      .def_property_readonly("x_post", [](const PyKalmanFilter& f) { return f.post_.x; })
-      .def_property_readonly("P_post", [](const PyKalmanFilter& f) { return f.post_.P; })
+  using KF = FilterPyKalmanFilter;
+  py::class_<KF> cls(m, "_KalmanFilter",
+                     "The compiled core of kfx.KalmanFilter (use kfx.KalmanFilter, which adds __repr__, "
+                     "test_matrix_dimensions and pickling).");
+  cls.def(py::init<Eigen::Index, Eigen::Index, Eigen::Index>(), py::arg("dim_x"), py::arg("dim_z"),
+          py::arg("dim_u") = 0,
+          "FilterPy's KalmanFilter(dim_x, dim_z, dim_u=0): x = 0 (dim_x, 1), P = Q = F = I, H = 0, R = I, B = None, "
+          "M = 0, alpha = 1.")
+      .def(py::init<const Model&>(), py::arg("model"),
+           "From a time-invariant kfx.Model: F = A, H = C, Q, R, x = m0 as a column, P = P0.")
+      .def_property_readonly("dim_x", &KF::n)
+      .def_property_readonly("dim_z", &KF::m)
+      .def_property_readonly("dim_u", &KF::dim_u);
+  static const char* const kDocs[KF::kNumAttrs] = {
+      "state estimate: (dim_x, 1), or (dim_x,) when a 1-D array was assigned",
+      "state covariance (dim_x, dim_x); a number p means p I",
+      "state transition (dim_x, dim_x)",
+      "measurement matrix (dim_z, dim_x)",
+      "process noise covariance (dim_x, dim_x); a number q means q everywhere (q 1 1^T), as in FilterPy",
+      "measurement noise covariance (dim_z, dim_z); a number r means r 1 1^T, as in FilterPy",
+      "control transition (dim_x, dim_u) or None",
+      "process-measurement cross-covariance (dim_x, dim_z), used by update_correlated",
+      "x after the last predict", "P after the last predict", "x after the last update", "P after the last update",
+      "gain of the last update (dim_x, dim_z)", "residual z - H x of the last update",
+      "innovation covariance H P H^T + R of the last update", "the last measurement (None before any)"};
+  for (int a = 0; a < KF::kNumAttrs; ++a) {
+    cls.def_property(
+        KF::Name(a), [a](KF& f) { return f.Get(a); }, [a](KF& f, py::handle v) { f.Set(a, v); }, kDocs[a]);
+  }
+  cls.def(
+      "_restore",
+      [](KF& f, const std::string& name, py::handle v) {
+        for (int a = 0; a < KF::kNumAttrs; ++a)
+          if (name == KF::Name(a)) return f.Set(a, v, false);
+        if (name != "SI") throw Error("_restore: no attribute " + name);
+        f.SetSI(v);
+      },
+      "Sets an attribute as a copy or unpickling restores it (shape checked, no numerical checks).");
+  cls.def_property("SI", &KF::GetSI, &KF::SetSI, "inverse of S (computed on first read after an update)")
+      .def_property("alpha", &KF::alpha, &KF::set_alpha, "fading-memory factor >= 1: P = alpha^2 F P F^T + Q")
+      .def_property_readonly("log_likelihood", &KF::LogLikelihood,
+                             "log N(y; 0, S) of the last update (over its observed entries; -inf if S is not PD)")
+      .def_property_readonly("likelihood", &KF::Likelihood, "exp(log_likelihood), at least the smallest float")
+      .def_property_readonly("mahalanobis", &KF::Mahalanobis, "sqrt(y^T SI y) of the last update")
+      .def("_set_likelihoods", &KF::SetLikelihoods)
       .def_property(
-          "update_form",
-          [](const PyKalmanFilter& f) {
-            return std::string(f.options_.update_form == CovarianceUpdateForm::kJoseph ? "joseph" : "standard");
+          "update_form", [](const KF& f) { return std::string(f.joseph() ? "joseph" : "standard"); },
+          [](KF& f, const std::string& s) {
+            f.set_joseph(ParseEnum<CovarianceUpdateForm>("update_form", s) == CovarianceUpdateForm::kJoseph);
           },
-          [](PyKalmanFilter& f, const std::string& s) {
-            f.options_.update_form = ParseEnum<CovarianceUpdateForm>("update_form", s);
-          },
-          "'joseph' (default, PSD-preserving) or 'standard' (P - K H P)")
-      .def("predict", &PyKalmanFilter::predict, "x = F x, P = F P F^T + Q.")
+          "'joseph' (default, as FilterPy's update) or 'standard' (P - K H P)")
       .def(
-          "update",
-          [](PyKalmanFilter& f, const py::object& z) {
-            // A Python number is a scalar measurement (dim_z = 1); anything else goes through the one
-            // array conversion, its errors naming z.
-            if (py::isinstance<py::float_>(z) || py::isinstance<py::int_>(z)) {
-              f.update(Eigen::VectorXd::Constant(1, z.cast<double>()));
-            } else {
-              f.update(VectorArgument(z, "z"));
-            }
-          },
-          py::arg("z"),
-          "Measurement update with z (m,) (or a number when dim_z = 1); NaN entries are missing (all NaN: no "
-          "update).")
-      .def("batch_filter", &PyKalmanFilter::batch_filter, py::arg("zs"), py::arg("update_state") = true,
-           "Filters zs (T, m) in one call (kfx.run_filter): returns (means (T, n), covariances (T, n, n), "
-           "means_p, covariances_p), predicted then updated for each row; x, P end at the last estimate.")
-      .def("rts_smoother", &PyKalmanFilter::rts_smoother, py::arg("Xs"), py::arg("Ps"),
-           "Rauch-Tung-Striebel smoother over filtered (Xs (T, n), Ps (T, n, n)) with this F, Q: returns "
-           "(x, P, K, Pp) as FilterPy (K: smoother gains, Pp: predicted covariances F P F^T + Q).")
-      .def("to_model", &PyKalmanFilter::AsModel, "The time-invariant kfx.Model (F, H, Q, R, x, P).");
+          "predict", [](KF& f, py::handle u, py::handle B, py::handle F, py::handle Q) { f.Predict(u, B, F, Q); },
+          py::arg("u") = py::none(), py::arg("B") = py::none(), py::arg("F") = py::none(), py::arg("Q") = py::none(),
+          "x = F x + B u, P = alpha^2 F P F^T + Q (Q given as a number: q I); sets x_prior, P_prior.")
+      .def(
+          "update", [](KF& f, py::handle z, py::handle R, py::handle H) { f.Update(z, R, H, false); }, py::arg("z"),
+          py::arg("R") = py::none(), py::arg("H") = py::none(),
+          "Joseph-form update with z (a number, (dim_z,), (dim_z, 1) or (1, dim_z)); None: no update; NaN "
+          "entries are missing. Sets y, S, K, z, x_post, P_post. Raises kfx.NumericalError if S is not "
+          "positive definite.")
+      .def(
+          "update_correlated", [](KF& f, py::handle z, py::handle R, py::handle H) { f.Update(z, R, H, true); },
+          py::arg("z"), py::arg("R") = py::none(), py::arg("H") = py::none(),
+          "Update when the measurement noise is correlated with the prior error (cross-covariance M): "
+          "S = H P H^T + H M + M^T H^T + R, K = (P H^T + M) S^-1.")
+      .def("update_steadystate", &KF::UpdateSteadyState, py::arg("z"), "x = x + K (z - H x) with the stored K; P kept.")
+      .def("predict_steadystate", &KF::PredictSteadyState, py::arg("u") = 0, py::arg("B") = py::none(),
+           "x = F x + B u; P kept.")
+      .def("update_sequential", &KF::UpdateSequential, py::arg("start"), py::arg("z_i"), py::arg("R_i") = py::none(),
+           py::arg("H_i") = py::none(),
+           "Update with rows start .. start + len(z_i) of the measurement only (R_i, H_i default to those rows of "
+           "R, H); fills those rows of y, K, z.")
+      .def("batch_filter", &KF::BatchFilter, py::arg("zs"), py::arg("Fs") = py::none(), py::arg("Qs") = py::none(),
+           py::arg("Hs") = py::none(), py::arg("Rs") = py::none(), py::arg("Bs") = py::none(),
+           py::arg("us") = py::none(), py::arg("update_first") = false, py::arg("saver") = py::none(),
+           "Filters every zs[i] in one call (predict then update, or update then predict with update_first): "
+           "returns (means, covariances, means_p, covariances_p), means (T, dim_x, 1) for a column x, (T, dim_x) "
+           "for a 1-D x; the filter ends in the last state. Per-step Fs, Qs, Hs, Rs, Bs, us; saver.save() after "
+           "each step. Without a saver the loop runs in C++ with the GIL released.")
+      .def("rts_smoother", &KF::RtsSmoother, py::arg("Xs"), py::arg("Ps"), py::arg("Fs") = py::none(),
+           py::arg("Qs") = py::none(),
+           "Rauch-Tung-Striebel smoother over filtered means Xs and covariances Ps (Fs[k+1], Qs[k+1] take step k "
+           "to k+1): returns (x, P, K, Pp) as FilterPy: K the smoother gains (zero last), Pp the predicted "
+           "covariances with Pp[-1] = Ps[-1].")
+      .def("get_prediction", &KF::GetPrediction, py::arg("u") = py::none(), py::arg("B") = py::none(),
+           py::arg("F") = py::none(), py::arg("Q") = py::none(), "(x, P) predict() would give; the filter is unchanged.")
+      .def("get_update", &KF::GetUpdate, py::arg("z") = py::none(),
+           "(x, P) update(z) would give; the filter is unchanged (z None: the current x, P).")
+      .def("residual_of", &KF::ResidualOf, py::arg("z"), "z - H x_prior.")
+      .def("to_model", &KF::AsModel, "The time-invariant kfx.Model (F, H, Q, R, x, P); B and M are not part of it.");
 }
 
 }  // namespace kfx::python

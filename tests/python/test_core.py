@@ -160,15 +160,16 @@ def test_kalman_filter_class_predict_update_equal_batch_filter_and_numpy(random_
         kf.update(z)
         means.append(kf.x)
         covs.append(kf.P)
-        assert kf.K.shape == (4, 2) and kf.y.shape == (2,) and kf.S.shape == (2, 2)
+        assert kf.K.shape == (4, 2) and kf.y.shape == (2,) and kf.S.shape == (2, 2)  # 1-D x: 1-D y
     np.testing.assert_allclose(means, xs, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(covs, Ps, rtol=1e-10, atol=1e-12)
-    kf2 = kfx.KalmanFilter(make(d))
+    kf2 = kfx.KalmanFilter(make(d))  # x = m0 as a column, as FilterPy shapes x
     mu, cov, mu_p, cov_p = kf2.batch_filter(y)
-    assert mu.shape == (30, 4) and cov.shape == (30, 4, 4) and mu_p.shape == (30, 4) and cov_p.shape == (30, 4, 4)
+    assert mu.shape == (30, 4, 1) and cov.shape == (30, 4, 4) and mu_p.shape == (30, 4, 1) and cov_p.shape == (30, 4, 4)
+    mu, mu_p = mu[:, :, 0], mu_p[:, :, 0]
     np.testing.assert_allclose(mu, means, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(cov, covs, rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(kf2.x, means[-1], rtol=1e-12)
+    np.testing.assert_allclose(kf2.x[:, 0], means[-1], rtol=1e-12)
     # mu_p is A times the previous filtered mean
     np.testing.assert_allclose(mu_p[1:], mu[:-1] @ d["A"].T, rtol=1e-12, atol=1e-14)
 
@@ -178,7 +179,7 @@ def test_rts_smoother_equals_the_model_smoother_and_a_batch_solution(cv):
     _, y = kfx.simulate(model, steps=25, seed=2)
     kf = kfx.KalmanFilter(model)
     mu, cov, _, _ = kf.batch_filter(y)
-    xs, Ps, Ks, Pp = kf.rts_smoother(mu, cov)
+    xs, Ps, Ks, Pp = kf.rts_smoother(mu[:, :, 0], cov)
     assert xs.shape == (25, 2) and Ps.shape == (25, 2, 2) and Ks.shape == (25, 2, 2) and Pp.shape == (25, 2, 2)
     sm = kfx.rts_smooth(model, kfx.run_filter(model, y, store_covariances="full"))
     np.testing.assert_allclose(xs, sm.x[1:], rtol=1e-9, atol=1e-10)
@@ -213,9 +214,9 @@ def test_missing_measurements_are_nan(random_model):
     for k, z in enumerate(y):
         kf.predict()
         kf.update(z)
-        np.testing.assert_allclose(kf.x, run.x_filt[k + 1], rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(kf.x[:, 0], run.x_filt[k + 1], rtol=1e-12, atol=1e-14)
         if k == 3:
-            assert np.isfinite(kf.y[0]) and np.isnan(kf.y[1]) and kf.K[0, 1] == 0.0
+            assert np.isfinite(kf.y[0, 0]) and np.isnan(kf.y[1, 0]) and kf.K[0, 1] == 0.0
 
 
 # ---- shapes, dtypes and memory orders ----------------------------------------------------------------
@@ -243,10 +244,10 @@ def test_fortran_ordered_noncontiguous_and_integer_inputs_give_the_same_numbers(
     # integer arrays convert to float64
     s = kfx.solve_filter_dare(np.array([[1]]), np.array([[1]]), np.array([[1]]), np.array([[1]]))
     assert s.P_pred.dtype == np.float64
-    # 1-D x and (n, 1) x are both accepted by the FilterPy class
+    # 1-D x and (n, 1) x are both accepted by the FilterPy class, and keep their shape
     kf = kfx.KalmanFilter(4, 2)
     kf.x = d["m0"].reshape(4, 1)
-    assert kf.x.shape == (4,)
+    assert kf.x.shape == (4, 1)
     kf.x = list(d["m0"])
     np.testing.assert_array_equal(kf.x, d["m0"])
 
@@ -260,9 +261,9 @@ def test_scalar_and_column_measurements_for_dim_z_1(cv):
         for k, z in enumerate(y):
             kf.predict()
             kf.update(convert(z))
-            np.testing.assert_array_equal(kf.x, ref[k + 1])
-    np.testing.assert_array_equal(kfx.KalmanFilter(model).batch_filter(y[:, 0])[0], ref[1:])
-    with pytest.raises(kfx.Error, match="length 1"):
+            np.testing.assert_allclose(kf.x[:, 0], ref[k + 1], rtol=1e-13, atol=1e-14)
+    np.testing.assert_allclose(kfx.KalmanFilter(model).batch_filter(y[:, 0])[0][:, :, 0], ref[1:], rtol=1e-13, atol=1e-14)
+    with pytest.raises(kfx.Error, match="length 2"):
         kf2 = kfx.KalmanFilter(2, 2)
         kf2.update(1.0)
 
@@ -342,10 +343,10 @@ def test_errors_are_value_errors_naming_the_argument(cv):
                  "filter")
     expect_error(lambda: kfx.reproduce("nope"), "nope")
     kf = kfx.KalmanFilter(2, 1)
-    expect_error(lambda: setattr(kf, "F", np.eye(3)), "F", "2x2")
+    expect_error(lambda: setattr(kf, "F", np.eye(3)), "F", "(2, 2)")
     expect_error(lambda: setattr(kf, "H", np.eye(2)), "H")
     expect_error(lambda: setattr(kf, "Q", np.array([[1.0, 2.0], [0.0, 1.0]])), "Q")
-    expect_error(lambda: setattr(kf, "R", np.zeros((1, 1))), "R")
+    expect_error(lambda: setattr(kf, "R", -np.ones((1, 1))), "R")
     expect_error(lambda: setattr(kf, "P", np.array([[1.0, 0.0], [0.0, -1.0]])), "P")
     expect_error(lambda: setattr(kf, "x", np.zeros(3)), "x")
     expect_error(lambda: setattr(kf, "x", np.array([np.nan, 0.0])), "x")

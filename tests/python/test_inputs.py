@@ -56,7 +56,8 @@ def test_every_shape_error_is_a_kfx_error():
     kf = kfx.KalmanFilter(2, 3)
     kf.H = np.ones((3, 2))
     kf.predict()
-    expect_error(lambda: kf.update(np.zeros((1, 3))), "z", "(1, 3)")
+    kf.update(np.zeros((1, 3)))  # a row is a measurement too (FilterPy's reshape_z)
+    expect_error(lambda: kf.update(np.zeros((2, 3))), "z", "(2, 3)")
     expect_error(lambda: kf.update(np.zeros(2)), "z", "length 3")
     expect_error(lambda: kf.update("abc"), "z")
     kf.update(np.zeros((3, 1)))  # a column is a vector
