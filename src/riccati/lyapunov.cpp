@@ -90,7 +90,7 @@ bool SolveSteinSmith(const ConstRef& A, const ConstRef& Q, int max_predicted_ste
     AddCongruence(Aj, X, 1.0, &try_pd, &X);  // X += A_j X A_j^T (X is copied/factored before it is written)
     if (!X.allFinite()) return false;
     if (a2 * a2 <= eps) break;  // |A_{j+1}|_F^2 <= |A_j|_F^4 <= eps: no further increment
-    if (j + 1 == kSmithMaxSteps) return false;
+    if (j + 1 == std::min(kSmithMaxSteps, max_predicted_steps)) return false;  // budget spent
     A2.noalias() = Aj * Aj;
     Aj.swap(A2);
     // ln |A_{2^j}| ~ ln c + 2^j ln rho: predict the step at which |A_j|^2 <= eps and give up early
