@@ -57,13 +57,18 @@ ComparisonModel LoadComparisonModel(const std::string& path) {
       if (j.is_object() && j.contains("format") && j["format"].is_string()) format = j["format"].get<std::string>();
     }
   }
+  if (format == "kfx-continuous-model") {
+    ContinuousModelFile file = LoadContinuousModel(path);
+    Model sampled = SampledAtFileGrid(file);
+    return ComparisonModel{std::move(sampled), std::nullopt, std::move(file)};
+  }
   if (format == "kfx-coupled-model") {
     const CoupledModelHeader header = ReadCoupledModelHeader(path);
     CoupledSystem system = LoadCoupledModelSlice(path, 0, header.n);
     Model dense = ToDenseModel(system);
-    return ComparisonModel{std::move(dense), std::move(system)};
+    return ComparisonModel{std::move(dense), std::move(system), std::nullopt};
   }
-  return ComparisonModel{LoadModel(path), std::nullopt};
+  return ComparisonModel{LoadModel(path), std::nullopt, std::nullopt};
 }
 
 ResolvedMethod ResolveMethod(const MethodSpec& spec, const ComparisonModel& truth, const MethodOptions& options) {
@@ -74,7 +79,8 @@ ResolvedMethod ResolveMethod(const MethodSpec& spec, const ComparisonModel& trut
   const detail::Stopwatch clock;
   ResolvedMethod r = (n == "tau" || n == "mu" || n == "subspace" || n == "subspace61")
                          ? detail::ResolveProjection(checked, truth, options)
-                         : detail::ResolveKalmanFamily(checked, truth, options);
+                     : n == "sampled" ? detail::ResolveSampled(checked, truth, options)
+                                      : detail::ResolveKalmanFamily(checked, truth, options);
   r.offline_seconds = clock.Seconds();
   r.spec = checked;
   if (!r.run) {
