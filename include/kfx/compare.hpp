@@ -29,7 +29,7 @@ namespace kfx {
 /// x_k = [z(t_k); int z over the last step], 2p numbers: SampledAtFileGrid).
 struct ComparisonModel {
   Model model;
-  std::optional<CoupledSystem> coupled;          ///< set for coupled models (blockdiag and banded need it)
+  std::optional<CoupledSystem> coupled;           ///< set for coupled models (blockdiag and banded need it)
   std::optional<ContinuousModelFile> continuous;  ///< set for continuous-time models (sampled needs it)
 };
 
@@ -71,8 +71,8 @@ ResolvedMethod ResolveMethod(const MethodSpec& spec, const ComparisonModel& trut
                              const MethodOptions& options = MethodOptions());
 
 struct CompareOptions {
-  int steps = 100;              ///< horizon T of the finite-horizon MSE and of the timing run (>= 1)
-  bool stationary = false;      ///< also (and as the headline) the stationary MSE; see MethodOptions
+  int steps = 100;          ///< horizon T of the finite-horizon MSE and of the timing run (>= 1)
+  bool stationary = false;  ///< also (and as the headline) the stationary MSE; see MethodOptions
   /// n x n symmetric PSD W of the weighted MSE tr(W E[e e^T]); empty = I. For a continuous-time model
   /// W is p x p and weighs the error of z(t_k) only (empty: I_p): the error of the continuous state at
   /// the sampling instants (paper 003's P_{T,n}).
@@ -120,8 +120,8 @@ struct CompareField {
   enum class Kind { kText, kInteger, kFlag, kNumber };
   std::string name;
   Kind kind = Kind::kNumber;
-  std::string text;    ///< kText; empty text with `null_if_empty` is null
-  double number = 0;   ///< kInteger, kFlag (0 or 1), kNumber
+  std::string text;   ///< kText; empty text with `null_if_empty` is null
+  double number = 0;  ///< kInteger, kFlag (0 or 1), kNumber
   bool null_if_empty = false;
 };
 

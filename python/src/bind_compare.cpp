@@ -85,9 +85,11 @@ void BindCompare(py::module_& m) {
       py::arg("model"), py::arg("methods"), py::arg("steps") = 100, py::arg("stationary") = false,
       py::arg("weight") = py::none(), py::arg("monte_carlo") = 0, py::arg("seed") = 1,
       "The rows of `kfx compare` (docs/cli.md): model is a kfx.Model or a model-file path (a coupled model "
-      "file for blockdiag/banded, a continuous-time model file for sampled); methods are specifications. Returns one dict per method "
+      "file for blockdiag/banded, a continuous-time model file for sampled); methods are specifications. Returns one "
+      "dict per method "
       "(pandas.DataFrame(rows) takes the list), each with the comparison's fields (steps, stationary, "
-      "kalman_final_mse, kalman_stationary_mse, kalman_bucy_mse, kalman_bucy_stationary_mse) and mse_curve; 'headline' is the stationary MSE with stationary=True, else the MSE at T. "
+      "kalman_final_mse, kalman_stationary_mse, kalman_bucy_mse, kalman_bucy_stationary_mse) and mse_curve; 'headline' "
+      "is the stationary MSE with stationary=True, else the MSE at T. "
       "kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures.");
 }
 

@@ -118,8 +118,7 @@ void KalmanBucyReference(const ContinuousModelFile& c, const MatrixXd& W, int st
 
 }  // namespace
 
-Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& methods,
-                   const CompareOptions& given) {
+Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& methods, const CompareOptions& given) {
   CompareOptions options = given;
   if (truth.continuous) options.weight = EmbeddedWeight(truth, given.weight);
   std::string error;

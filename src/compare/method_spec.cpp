@@ -118,8 +118,8 @@ double MethodSpec::GetPositiveNumber(const std::string& key) const {
 }
 
 const std::vector<std::string>& MethodNames() {
-  static const std::vector<std::string> names = {"kalman", "steady",   "design",     "coarse",    "tau",
-                                                 "mu",     "subspace", "subspace61", "sampled", "blockdiag", "banded"};
+  static const std::vector<std::string> names = {"kalman",   "steady",     "design",  "coarse",    "tau",   "mu",
+                                                 "subspace", "subspace61", "sampled", "blockdiag", "banded"};
   return names;
 }
 

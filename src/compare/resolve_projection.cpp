@@ -145,15 +145,14 @@ MatrixXd BlockDiag2(const MatrixXd& a, const MatrixXd& b) {
 void MeshSubspace(const MethodSpec& spec, Index n, MatrixXd* E, MatrixXd* W) {
   const long coarse = spec.GetPositive("mesh", 0);
   if (n % 2 != 0) {
-    throw Error(Where(spec) + "mesh: expected a state x = (z, v) on the fine mesh's nodes (n even), got n = " +
-                Str(n));
+    throw Error(Where(spec) + "mesh: expected a state x = (z, v) on the fine mesh's nodes (n even), got n = " + Str(n));
   }
   const long fine = static_cast<long>(n / 2);
   if (coarse >= fine || (fine + 1) % (coarse + 1) != 0) {
-    throw Error(Where(spec) + "mesh=" + std::to_string(coarse) + ": the meshes are not nested: the fine mesh has " +
-                std::to_string(fine) + " interior nodes (n = " + Str(n) + "), and fine + 1 = " +
-                std::to_string(fine + 1) + " must be a multiple of mesh + 1 = " + std::to_string(coarse + 1) +
-                " with mesh < " + std::to_string(fine));
+    throw Error(
+        Where(spec) + "mesh=" + std::to_string(coarse) + ": the meshes are not nested: the fine mesh has " +
+        std::to_string(fine) + " interior nodes (n = " + Str(n) + "), and fine + 1 = " + std::to_string(fine + 1) +
+        " must be a multiple of mesh + 1 = " + std::to_string(coarse + 1) + " with mesh < " + std::to_string(fine));
   }
   const MatrixXd P = P1Prolongation(static_cast<int>(fine), static_cast<int>(coarse));
   *E = BlockDiag2(P, P);

@@ -34,8 +34,9 @@ int Ratio(const MethodSpec& spec, double h, double dt) {
   const double ratio = h / dt;
   const double j = std::round(ratio);
   if (j < 1 || std::abs(ratio - j) > 1e-9 * ratio || j > 1e6) {
-    throw Error(Where(spec) + "dt=" + spec.Get("dt") + " is not a positive integer multiple of the data's sampling step " +
-                Num(dt) + " (the model file's dt)");
+    throw Error(Where(spec) + "dt=" + spec.Get("dt") +
+                " is not a positive integer multiple of the data's sampling step " + Num(dt) +
+                " (the model file's dt)");
   }
   return static_cast<int>(j);
 }
@@ -97,8 +98,8 @@ ResolvedMethod ResolveSampled(const MethodSpec& spec, const ComparisonModel& tru
   const Model one = SampledModel(cm, h, 1);
   const StepPtr coarse_ptr = one.step(1);
   const ModelStep& coarse = *coarse_ptr;
-  auto steps = std::make_shared<const SampledSteps>(cm, dt, j, coarse.A.topLeftCorner(p, p),
-                                                    coarse.A.bottomLeftCorner(p, p));
+  auto steps =
+      std::make_shared<const SampledSteps>(cm, dt, j, coarse.A.topLeftCorner(p, p), coarse.A.bottomLeftCorner(p, p));
   const bool steady = spec.Get("gain", options.stationary ? "steady" : "schedule") == "steady";
   std::vector<MatrixXd> gains;  // gains[c] for the c-th update (c >= 1); one gain when steady
   MatrixXd claimed_z;           // the filter's own covariance of z after its last update before T
@@ -106,7 +107,8 @@ ResolvedMethod ResolveSampled(const MethodSpec& spec, const ComparisonModel& tru
   const int updates = T / j;
   if (steady) {
     const DareSolution dare = SolveFilterDare(coarse.A, coarse.C, coarse.Q, coarse.R);
-    if (!dare.summary.ok()) throw NumericalError(Where(spec) + "DARE of the sampled model: " + dare.summary.BriefReport());
+    if (!dare.summary.ok())
+      throw NumericalError(Where(spec) + "DARE of the sampled model: " + dare.summary.BriefReport());
     gains = {MatrixXd(), dare.filter_gain};
     claimed_z = dare.P_filt.topLeftCorner(p, p);
   } else {
@@ -148,8 +150,8 @@ ResolvedMethod ResolveSampled(const MethodSpec& spec, const ComparisonModel& tru
   out.description = "Kalman filter of the continuous model sampled every " + Num(h) + " (" +
                     (j == 1 ? std::string("every step") : "every " + std::to_string(j) + " steps") + ", " +
                     (steady ? "steady gain" : "gain schedule") + ")";
-  out.memory_bytes = 8.0 * static_cast<double>((steady ? 1 : (T + j - 1) / j) * (2 * p * r) + j * p * p +
-                                               3 * p * p + (p + r));
+  out.memory_bytes =
+      8.0 * static_cast<double>((steady ? 1 : (T + j - 1) / j) * (2 * p * r) + j * p * p + 3 * p * p + (p + r));
   return out;
 }
 

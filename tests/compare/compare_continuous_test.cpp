@@ -62,8 +62,8 @@ TEST_F(ContinuousCompareTest, TheFileIsReadAsItsExactDiscreteEquivalent) {
 TEST_F(ContinuousCompareTest, SampledRowsAreTheLibrarysSampledFilterCovariance) {
   CompareOptions o;
   o.steps = kT;
-  const std::vector<std::string> texts = {"kalman", "sampled:dt=0.05", "sampled:0.1", "sampled:dt=0.2",
-                                          "sampled:dt=0.4", "sampled:dt=0.2,gain=steady"};
+  const std::vector<std::string> texts = {"kalman",         "sampled:dt=0.05", "sampled:0.1",
+                                          "sampled:dt=0.2", "sampled:dt=0.4",  "sampled:dt=0.2,gain=steady"};
   const Comparison c = Compare(*truth_, Specs(texts), o);
   const ContinuousModel& cm = truth_->continuous->model;
   const double T = kT * 0.05;
@@ -106,7 +106,7 @@ TEST_F(ContinuousCompareTest, StationaryAndWeightedRows) {
   o.weight = (MatrixXd(2, 2) << 1, 0, 0, 0.25).finished();
   const Comparison c = Compare(*truth_, Specs({"kalman", "sampled:dt=0.05", "sampled:dt=0.1"}), o);
   EXPECT_LT(Rel(c.rows[1].stationary_mse, c.kalman_stationary), 1e-9);  // the steady gain at the data's grid
-  EXPECT_TRUE(std::isnan(c.rows[2].stationary_mse));                     // periodic on the data's grid
+  EXPECT_TRUE(std::isnan(c.rows[2].stationary_mse));                    // periodic on the data's grid
   EXPECT_GE(c.rows[2].final_mse, c.rows[1].final_mse * (1 - 1e-10));
   const CareSolution care = SolveFilterCare(truth_->continuous->model);
   EXPECT_LT(Rel(c.kalman_bucy_stationary, (o.weight * care.P).trace()), 1e-12);
@@ -149,14 +149,15 @@ TEST_F(ContinuousCompareTest, OnDataTheSampledFilterIsTheLibrarysOnTheSummedIncr
 TEST_F(ContinuousCompareTest, EveryBadSpecAndFileIsOneErrorNamingIt) {
   MethodOptions mo;
   mo.steps = 4;
-  const ComparisonModel chain = LoadComparisonModel(std::string(KFX_SOURCE_DIR) + "/examples/models/mass_spring_chain.json");
+  const ComparisonModel chain =
+      LoadComparisonModel(std::string(KFX_SOURCE_DIR) + "/examples/models/mass_spring_chain.json");
   EXPECT_TRUE(ThrowsErrorStartingWith([&] { ResolveMethod(ParseMethodSpec("sampled:dt=0.1"), chain, mo); },
                                       "method 'sampled:dt=0.1': ", {"needs a continuous-time model"}));
   EXPECT_TRUE(ThrowsErrorStartingWith([&] { ResolveMethod(ParseMethodSpec("sampled:dt=0.07"), *truth_, mo); },
                                       "method 'sampled:dt=0.07': ", {"not a positive integer multiple of", "0.05"}));
   for (const char* bad : {"sampled:dt=0", "sampled:dt=-0.1", "sampled:dt=nan", "sampled:dt=inf", "sampled:dt=1x"}) {
-    EXPECT_TRUE(ThrowsErrorStartingWith([&] { ParseMethodSpec(bad); }, std::string("method '") + bad + "': ",
-                                        {"dt: expected a finite number > 0"}));
+    EXPECT_TRUE(ThrowsErrorStartingWith([&] { ParseMethodSpec(bad); },
+                                        std::string("method '") + bad + "': ", {"dt: expected a finite number > 0"}));
   }
   EXPECT_TRUE(ThrowsErrorStartingWith([&] { ParseMethodSpec("sampled"); }, "method 'sampled': ", {"needs dt="}));
   EXPECT_TRUE(ThrowsErrorStartingWith([&] { ParseMethodSpec("sampled:dt=0.1,gain=converged"); },
@@ -194,17 +195,17 @@ TEST_F(MeshCompareTest, MeshSubspaceIsTheBuildersCoarseSpace) {
   wo.coarse_nodes = 3;
   const DampedWaveProblem p = BuildDampedWave(wo);
   const ModelStep& s = p.fine.step;
-  const ComparisonModel truth{Model(s, VectorXd::Zero(30), MatrixXd::Identity(30, 30)), std::nullopt,
-                              std::nullopt};
+  const ComparisonModel truth{Model(s, VectorXd::Zero(30), MatrixXd::Identity(30, 30)), std::nullopt, std::nullopt};
   CompareOptions o;
   o.steps = 30;
   o.weight = p.fine.gram;
   WriteNpyMatrix(Path("E.npy"), p.prolongation);
   WriteNpyMatrix(Path("W.npy"), p.fine.gram);
-  const Comparison c = Compare(
-      truth, Specs({"subspace:mesh=3", "subspace:basis=" + Path("E.npy") + ",gram=" + Path("W.npy"), "subspace:mesh=7",
-                    "subspace61:mesh=3", "subspace61:basis=" + Path("E.npy") + ",gram=" + Path("W.npy")}),
-      o);
+  const Comparison c =
+      Compare(truth,
+              Specs({"subspace:mesh=3", "subspace:basis=" + Path("E.npy") + ",gram=" + Path("W.npy"), "subspace:mesh=7",
+                     "subspace61:mesh=3", "subspace61:basis=" + Path("E.npy") + ",gram=" + Path("W.npy")}),
+              o);
   // The library run on the builder's subspace (000 Algorithm 2.3), evaluated by the engine.
   SubspaceFilterOptions so;
   so.steps = 30;
