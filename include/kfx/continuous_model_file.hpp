@@ -18,7 +18,8 @@ struct ContinuousModelFile {
 };
 
 /// The file's "format" field: true when it is "kfx-continuous-model" (false for any other file,
-/// including one that cannot be read or parsed: the reader of that format reports it).
+/// including one that is not a regular file or cannot be read or parsed: the reader of that format
+/// reports it).
 bool IsContinuousModelFile(const std::string& path);
 
 /// Reads a continuous-time model file.

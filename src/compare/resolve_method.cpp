@@ -1,9 +1,5 @@
 // Resolving a method specification against the true model (include/kfx/compare.hpp): the dispatch by
 // method name, the helpers the resolvers share (resolve_internal.hpp), and reading the true model.
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <sstream>
-
 #include "compare/resolve_internal.hpp"
 #include "kfx/coupled_model_file.hpp"
 #include "kfx/error.hpp"
@@ -47,16 +43,7 @@ void RequireTimeInvariant(const MethodSpec& spec, const Model& model) {
 }  // namespace detail
 
 ComparisonModel LoadComparisonModel(const std::string& path) {
-  std::string format;
-  {
-    std::ifstream in(path);
-    if (in) {
-      std::stringstream text;
-      text << in.rdbuf();
-      const nlohmann::json j = nlohmann::json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
-      if (j.is_object() && j.contains("format") && j["format"].is_string()) format = j["format"].get<std::string>();
-    }
-  }
+  const std::string format = JsonFileFormat(path);
   if (format == "kfx-continuous-model") {
     ContinuousModelFile file = LoadContinuousModel(path);
     Model sampled = SampledAtFileGrid(file);

@@ -3,8 +3,6 @@
 #include "kfx/continuous_model_file.hpp"
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include "io/json_matrix.hpp"
 #include "kfx/error.hpp"
@@ -32,14 +30,7 @@ Eigen::MatrixXd Matrix(const detail::Json& root, const std::string& path, const 
 
 }  // namespace
 
-bool IsContinuousModelFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return false;
-  std::stringstream text;
-  text << in.rdbuf();
-  const detail::Json j = detail::Json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
-  return j.is_object() && j.contains("format") && j["format"] == kFormat;
-}
+bool IsContinuousModelFile(const std::string& path) { return JsonFileFormat(path) == kFormat; }
 
 ContinuousModelFile LoadContinuousModel(const std::string& path) {
   const detail::Json j = detail::ReadJsonObject(path, kFormat);
