@@ -40,9 +40,13 @@ if [[ -x "$bindir/kfx_example_wave" ]]; then
   E="$wave/prolongation.npy" W="$wave/gram.npy"
   "$kfx" compare "$wave/fine.json" --steps 200 --weight "$W" --monte-carlo 100 --out "$wave/compare" \
     --method steady --method "coarse:model=$wave/coarse.json,prolongation=$E" \
-    --method "subspace:basis=$E,gram=$W,gain=converged" --method "subspace61:basis=$E,gram=$W" \
+    --method "subspace:mesh=3,gain=converged" --method "subspace61:basis=$E,gram=$W" \
     --method tau:order=2 --method tau:order=6 --method mu:order=2 --method mu:order=6
 fi
+
+section "compare: a continuous-time model (003) sampled every dt, 2 dt, 8 dt against the Kalman-Bucy filter"
+"$kfx" compare "$here/continuous/oscillator.json" --steps 200 --method kalman --method sampled:dt=0.1 \
+  --method sampled:dt=0.4 --method sampled:dt=0.4,gain=steady
 
 section "compare: block-diagonal and banded filters of a coupled model (examples/coupled) vs the Kalman filter"
 "$kfx" compare "$here/coupled/model.json" --steps 200 --method kalman --method blockdiag --method banded

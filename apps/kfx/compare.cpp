@@ -40,34 +40,33 @@ std::string Bytes(double b) {
   return os.str();
 }
 
+nlohmann::ordered_json FieldsJson(const std::vector<CompareField>& fields) {
+  nlohmann::ordered_json o;
+  for (const CompareField& f : fields) {
+    switch (f.kind) {
+      case CompareField::Kind::kText:
+        o[f.name] = f.null_if_empty && f.text.empty() ? nlohmann::ordered_json() : nlohmann::ordered_json(f.text);
+        break;
+      case CompareField::Kind::kInteger:
+        o[f.name] = static_cast<long long>(f.number);
+        break;
+      case CompareField::Kind::kFlag:
+        o[f.name] = f.number != 0;
+        break;
+      case CompareField::Kind::kNumber:
+        o[f.name] = Number(f.number);
+        break;
+    }
+  }
+  return o;
+}
+
 nlohmann::ordered_json CompareJson(const Comparison& c, const std::string& model) {
   nlohmann::ordered_json j;
   j["model"] = model;
-  j["steps"] = c.steps;
-  j["stationary"] = c.stationary;
-  j["kalman_final_mse"] = Number(c.kalman_final);
-  j["kalman_stationary_mse"] = Number(c.kalman_stationary);
+  j.update(FieldsJson(ComparisonFields(c)));
   nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-  for (const CompareRow& r : c.rows) {
-    nlohmann::ordered_json o;
-    o["method"] = r.spec;
-    o["description"] = r.description;
-    o["online"] = r.online;
-    o["state_dim"] = r.state_dim;
-    o["offline_seconds"] = r.offline_seconds;
-    o["online_seconds_per_step"] = r.online_seconds_per_step;
-    o["memory_bytes"] = r.memory_bytes;
-    o["mse"] = Number(r.final_mse);
-    o["stationary_mse"] = Number(r.stationary_mse);
-    if (!r.stationary_note.empty()) o["stationary_note"] = r.stationary_note;
-    o["ratio_to_kalman"] = Number(r.ratio);
-    o["claimed_mse"] = Number(r.claimed_final);
-    o["claimed_stationary_mse"] = Number(r.claimed_stationary);
-    o["monte_carlo_runs"] = r.mc_runs;
-    o["monte_carlo_mse"] = Number(r.mc_mse);
-    o["monte_carlo_std_error"] = Number(r.mc_std_error);
-    rows.push_back(o);
-  }
+  for (const CompareRow& r : c.rows) rows.push_back(FieldsJson(CompareRowFields(r, c.stationary)));
   j["rows"] = rows;
   return j;
 }
@@ -76,6 +75,10 @@ void PrintTable(const Comparison& c) {
   const bool mc = !c.rows.empty() && c.rows.front().mc_runs > 0;
   std::printf("optimal Kalman filter on the true model: MSE at T = %d: %s, stationary (DARE): %s\n", c.steps,
               Cell(c.kalman_final, 6).c_str(), Cell(c.kalman_stationary, 6).c_str());
+  if (std::isfinite(c.kalman_bucy_final)) {
+    std::printf("Kalman-Bucy filter (observes y continuously; a lower bound): MSE at T: %s, stationary (CARE): %s\n",
+                Cell(c.kalman_bucy_final, 6).c_str(), Cell(c.kalman_bucy_stationary, 6).c_str());
+  }
   std::printf("%-34s %5s %9s %11s %9s %11s %11s %7s %11s %11s", "method", "n_z", "offline", "online/step", "memory",
               "MSE(T)", "stationary", "ratio", "claimed", "claimed st.");
   if (mc) std::printf(" %22s", "Monte Carlo MSE(T)");

@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "filter_form.hpp"
+#include "kfx/continuous_model_file.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/kalman_filter.hpp"
@@ -19,7 +20,7 @@ namespace kfx::cli {
 namespace {
 
 int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
-  const Model model = LoadModel(a.model);
+  const Model model = LoadModelOrSampled(a.model);  // a continuous-time file: its sampled equivalent
   const TimeSeries y = ReadTimeSeries(a.data);
   ProgressLine progress(smooth ? "smooth" : "filter");
   FilterRunOptions opt;

@@ -4,13 +4,14 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "kfx/continuous_model_file.hpp"
 #include "kfx/io.hpp"
 #include "kfx/simulation.hpp"
 
 namespace kfx::cli {
 
 int RunSimulate(const SimulateArgs& a) {
-  const Model model = LoadModel(a.model);
+  const Model model = LoadModelOrSampled(a.model);  // a continuous-time file: its sampled equivalent
   const Trajectory tr = Simulate(model, SimulationOptions{a.steps, a.seed});  // finite, or it throws
   OutputDirectory out(a.out, "summary.json");
   const std::string ext = a.csv ? ".csv" : ".npy";

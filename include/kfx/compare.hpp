@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "kfx/block_diagonal.hpp"
+#include "kfx/continuous_model_file.hpp"
 #include "kfx/linear_filter.hpp"
 #include "kfx/method_spec.hpp"
 #include "kfx/model.hpp"
@@ -23,13 +24,17 @@
 
 namespace kfx {
 
-/// The true model of a comparison: a plain model, or a coupled one (its dense form in `model`).
+/// The true model of a comparison: a plain model, a coupled one (its dense form in `model`), or a
+/// continuous-time one (in `model` its exact discrete-time equivalent at the data's grid, state
+/// x_k = [z(t_k); int z over the last step], 2p numbers: SampledAtFileGrid).
 struct ComparisonModel {
   Model model;
-  std::optional<CoupledSystem> coupled;  ///< set for coupled models (blockdiag and banded need it)
+  std::optional<CoupledSystem> coupled;           ///< set for coupled models (blockdiag and banded need it)
+  std::optional<ContinuousModelFile> continuous;  ///< set for continuous-time models (sampled needs it)
 };
 
-/// Reads a model file ("kfx-model") or a coupled model file ("kfx-coupled-model"), by its "format".
+/// Reads a model file ("kfx-model"), a coupled model file ("kfx-coupled-model") or a continuous-time
+/// model file ("kfx-continuous-model"), by its "format".
 /// @throws kfx::Error naming the file and the field.
 ComparisonModel LoadComparisonModel(const std::string& path);
 
@@ -66,9 +71,12 @@ ResolvedMethod ResolveMethod(const MethodSpec& spec, const ComparisonModel& trut
                              const MethodOptions& options = MethodOptions());
 
 struct CompareOptions {
-  int steps = 100;              ///< horizon T of the finite-horizon MSE and of the timing run (>= 1)
-  bool stationary = false;      ///< also (and as the headline) the stationary MSE; see MethodOptions
-  Eigen::MatrixXd weight{};     ///< n x n symmetric PSD W of the weighted MSE tr(W E[e e^T]); empty = I
+  int steps = 100;          ///< horizon T of the finite-horizon MSE and of the timing run (>= 1)
+  bool stationary = false;  ///< also (and as the headline) the stationary MSE; see MethodOptions
+  /// n x n symmetric PSD W of the weighted MSE tr(W E[e e^T]); empty = I. For a continuous-time model
+  /// W is p x p and weighs the error of z(t_k) only (empty: I_p): the error of the continuous state at
+  /// the sampling instants (paper 003's P_{T,n}).
+  Eigen::MatrixXd weight{};
   int monte_carlo = 0;          ///< Monte Carlo runs (0: none; else >= 2)
   std::uint64_t seed = 1;       ///< of the timing run and the Monte Carlo runs
   ProgressCallback progress{};  ///< (methods done, methods)
@@ -99,8 +107,32 @@ struct Comparison {
   /// (NaN for a time-varying model or when the DARE fails).
   double kalman_final = 0.0;
   double kalman_stationary = std::numeric_limits<double>::quiet_NaN();
+  /// Continuous-time models only (else NaN): the Kalman-Bucy filter, which observes y continuously, a lower
+  /// bound for every row: tr(W P_c(T dt)) (KalmanBucyCovariance) and tr(W P) of the filter CARE.
+  double kalman_bucy_final = std::numeric_limits<double>::quiet_NaN();
+  double kalman_bucy_stationary = std::numeric_limits<double>::quiet_NaN();
   std::vector<CompareRow> rows;
 };
+
+/// One named value of a comparison, as `kfx compare --json` and kfx.compare show it: text, an integer, a
+/// flag or a number (a number that does not exist, NaN, is shown as null / None).
+struct CompareField {
+  enum class Kind { kText, kInteger, kFlag, kNumber };
+  std::string name;
+  Kind kind = Kind::kNumber;
+  std::string text;   ///< kText; empty text with `null_if_empty` is null
+  double number = 0;  ///< kInteger, kFlag (0 or 1), kNumber
+  bool null_if_empty = false;
+};
+
+/// The fields of one row, in order (docs/cli.md, `--json`): method, description, online, state_dim,
+/// offline_seconds, online_seconds_per_step, memory_bytes, mse, stationary_mse, stationary_note, headline,
+/// ratio_to_kalman, claimed_mse, claimed_stationary_mse, monte_carlo_runs, monte_carlo_mse,
+/// monte_carlo_std_error. The one list the CLI's JSON and Python's dicts are made from.
+std::vector<CompareField> CompareRowFields(const CompareRow& row, bool stationary);
+/// The fields of the comparison itself: steps, stationary, kalman_final_mse, kalman_stationary_mse,
+/// kalman_bucy_mse, kalman_bucy_stationary_mse.
+std::vector<CompareField> ComparisonFields(const Comparison& comparison);
 
 /// One row per method (in the order given).
 /// @throws kfx::Error on invalid options or specs (ResolveMethod).

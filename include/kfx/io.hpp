@@ -95,6 +95,11 @@ void WriteTimeSeries(const std::string& path, const TimeSeries& data,
 /// dimension makes the model time-varying). @throws kfx::Error naming the file and the field.
 Model LoadModel(const std::string& path);
 
+/// The "format" field of the JSON object in `path` ("kfx-model", "kfx-coupled-model", ...), or "" when the
+/// path is not a regular file (a FIFO is not opened), cannot be read, or holds no JSON object with a
+/// string "format": the reader of the file then says what is wrong.
+std::string JsonFileFormat(const std::string& path);
+
 struct SaveModelOptions {
   /// Matrices with more entries than this go to .npy files beside the JSON file.
   std::int64_t inline_max_entries = 400;

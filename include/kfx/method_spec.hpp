@@ -8,7 +8,8 @@
 //
 // e.g. `kalman`, `kalman:form=sqrt`, `steady`, `design:low_q.json`, `tau:order=4,step=two-da`,
 // `mu:order=2,modes=least-damped`, `subspace:basis=E.npy,gram=W.npy`, `subspace61:basis=E.npy`,
-// `coarse:model=coarse.json,prolongation=E.npy`, `blockdiag`, `banded`. Parsing checks the grammar,
+// `subspace:mesh=3`, `coarse:model=coarse.json,prolongation=E.npy`, `sampled:dt=0.1`, `blockdiag`,
+// `banded`. Parsing checks the grammar,
 // the method's name, its parameter names and the values that need no model (integers, choices);
 // ResolveMethod (compare.hpp) checks the rest against the model.
 #include <string>
@@ -31,10 +32,13 @@ struct MethodSpec {
   /// The value of `key` as a positive integer (fallback when not given).
   /// @throws kfx::Error "method 'SPEC': KEY: expected a positive integer, got 'VALUE'".
   long GetPositive(const std::string& key, long fallback) const;
+  /// The value of `key` (which must be given) as a finite number > 0.
+  /// @throws kfx::Error "method 'SPEC': KEY: expected a finite number > 0, got 'VALUE'".
+  double GetPositiveNumber(const std::string& key) const;
 };
 
 /// The method names the grammar accepts: kalman, steady, design, coarse, tau, mu, subspace,
-/// subspace61, blockdiag, banded.
+/// subspace61, sampled, blockdiag, banded.
 const std::vector<std::string>& MethodNames();
 
 /// The parameter names `method` takes (the first one is positional when the method has one).

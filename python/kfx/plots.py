@@ -169,13 +169,26 @@ def _error_axis(ax, values):
         ax.set_yscale("log")
 
 
+def _compare_axes(fig, ax, errors, kalman, kalman_label, xlabel, title):
+    """What both kfx compare figures share: the error axis, the optimal filter's line, labels, grid, legend."""
+    _error_axis(ax, errors)
+    if kalman is not None and math.isfinite(kalman) and kalman > 0:
+        ax.axhline(kalman, color="k", ls=":", lw=1, label=kalman_label)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("true mean-square error (exact)")
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend_outside(fig, ax)
+    return fig
+
+
 def compare_pareto(rows, kalman=None, ax=None, title="true error against cost per step"):
     """kfx compare: each method's true (exact) error against its online time per step, log-log, with
     the Pareto front (no other method is both cheaper and more accurate) joined; rows = list of dicts
     with "method", "online_seconds_per_step", "headline" (the error), as kfx.compare returns them;
-    kalman = the optimal filter's error (default: the rows' "kalman_mse" / "kalman_stationary_mse")."""
-    if kalman is None and rows and "kalman_mse" in rows[0]:
-        kalman = rows[0]["kalman_stationary_mse" if rows[0].get("stationary") else "kalman_mse"]
+    kalman = the optimal filter's error (default: the rows' "kalman_final_mse" / "kalman_stationary_mse")."""
+    if kalman is None and rows and "kalman_final_mse" in rows[0]:
+        kalman = rows[0]["kalman_stationary_mse" if rows[0].get("stationary") else "kalman_final_mse"]
     fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(6.5, 4.5))
     def num(v):
         return math.nan if v is None or v == "" else float(v)
@@ -193,15 +206,8 @@ def compare_pareto(rows, kalman=None, ax=None, title="true error against cost pe
     if len(front) > 1:
         ax.plot(*zip(*front), "k-", lw=0.8, alpha=0.6, label="Pareto front")
     ax.set_xscale("log")
-    _error_axis(ax, [p[1] for p in pts])
-    if kalman is not None and math.isfinite(kalman) and kalman > 0:
-        ax.axhline(kalman, color="k", ls=":", lw=1, label="optimal Kalman filter")
-    ax.set_xlabel("online time per step (microseconds)")
-    ax.set_ylabel("true mean-square error (exact)")
-    ax.set_title(title, fontsize=10)
-    ax.grid(True, which="both", alpha=0.3)
-    _legend_outside(fig, ax)
-    return fig
+    return _compare_axes(fig, ax, [p[1] for p in pts], kalman, "optimal Kalman filter",
+                         "online time per step (microseconds)", title)
 
 
 def compare_error_vs_time(k, curves, kalman=None, ax=None, title="true error against time"):
@@ -211,15 +217,8 @@ def compare_error_vs_time(k, curves, kalman=None, ax=None, title="true error aga
         kk = [a for a, b in zip(k, v) if math.isfinite(b) and b > 0]
         vv = [b for b in v if math.isfinite(b) and b > 0]
         ax.plot(kk, vv, label=_short_method(label))
-    _error_axis(ax, [b for v in curves.values() for b in v])
-    if kalman is not None and math.isfinite(kalman) and kalman > 0:
-        ax.axhline(kalman, color="k", ls=":", lw=1, label="optimal Kalman filter at T")
-    ax.set_xlabel("k (time step)")
-    ax.set_ylabel("true mean-square error (exact)")
-    ax.set_title(title, fontsize=10)
-    ax.grid(True, which="both", alpha=0.3)
-    _legend_outside(fig, ax)
-    return fig
+    return _compare_axes(fig, ax, [b for v in curves.values() for b in v], kalman, "optimal Kalman filter at T",
+                         "k (time step)", title)
 
 
 # ---- the papers' figures from `kfx reproduce --out DIR` --------------------------------------------

@@ -19,27 +19,25 @@ namespace {
 
 py::object Value(double v) { return std::isfinite(v) ? py::object(py::float_(v)) : py::object(py::none()); }
 
-py::dict RowDict(const CompareRow& r, bool stationary) {
-  py::dict d;
-  d["method"] = r.spec;
-  d["description"] = r.description;
-  d["online"] = r.online;
-  d["state_dim"] = r.state_dim;
-  d["offline_seconds"] = r.offline_seconds;
-  d["online_seconds_per_step"] = r.online_seconds_per_step;
-  d["memory_bytes"] = r.memory_bytes;
-  d["mse"] = Value(r.final_mse);
-  d["stationary_mse"] = Value(r.stationary_mse);
-  d["stationary"] = stationary;
-  d["headline"] = Value(stationary ? r.stationary_mse : r.final_mse);
-  d["ratio_to_kalman"] = Value(r.ratio);
-  d["claimed_mse"] = Value(r.claimed_final);
-  d["claimed_stationary_mse"] = Value(r.claimed_stationary);
-  d["monte_carlo_runs"] = r.mc_runs;
-  d["monte_carlo_mse"] = Value(r.mc_mse);
-  d["monte_carlo_std_error"] = Value(r.mc_std_error);
-  d["mse_curve"] = r.mse;
-  return d;
+void AddFields(const std::vector<CompareField>& fields, py::dict* d) {
+  for (const CompareField& f : fields) {
+    py::object v;
+    switch (f.kind) {
+      case CompareField::Kind::kText:
+        v = f.null_if_empty && f.text.empty() ? py::object(py::none()) : py::object(py::str(f.text));
+        break;
+      case CompareField::Kind::kInteger:
+        v = py::int_(static_cast<long long>(f.number));
+        break;
+      case CompareField::Kind::kFlag:
+        v = py::bool_(f.number != 0);
+        break;
+      case CompareField::Kind::kNumber:
+        v = Value(f.number);
+        break;
+    }
+    (*d)[py::str(f.name)] = v;
+  }
 }
 
 }  // namespace
@@ -63,7 +61,7 @@ void BindCompare(py::module_& m) {
         for (const std::string& t : methods) specs.push_back(ParseMethodSpec(t));
         const ComparisonModel truth = py::isinstance<py::str>(model)
                                           ? LoadComparisonModel(model.cast<std::string>())
-                                          : ComparisonModel{model.cast<Model>(), std::nullopt};
+                                          : ComparisonModel{model.cast<Model>(), std::nullopt, std::nullopt};
         CompareOptions o;
         o.steps = steps;
         o.stationary = stationary;
@@ -75,9 +73,10 @@ void BindCompare(py::module_& m) {
         const Comparison c = call.Run([&] { return Compare(truth, specs, o); });
         py::list rows;
         for (const CompareRow& r : c.rows) {
-          py::dict d = RowDict(r, stationary);
-          d["kalman_mse"] = Value(c.kalman_final);
-          d["kalman_stationary_mse"] = Value(c.kalman_stationary);
+          py::dict d;
+          AddFields(CompareRowFields(r, c.stationary), &d);
+          AddFields(ComparisonFields(c), &d);
+          d["mse_curve"] = r.mse;
           rows.append(d);
         }
         return rows;
@@ -85,12 +84,14 @@ void BindCompare(py::module_& m) {
       py::arg("model"), py::arg("methods"), py::arg("steps") = 100, py::arg("stationary") = false,
       py::arg("weight") = py::none(), py::arg("monte_carlo") = 0, py::arg("seed") = 1, py::arg("progress") = py::none(),
       "The rows of `kfx compare` (docs/cli.md): model is a kfx.Model or a model-file path (a coupled model "
-      "file for blockdiag/banded); methods are specifications. Returns one dict per method "
-      "(pandas.DataFrame(rows) takes the list), each with the optimal Kalman filter's kalman_mse and "
-      "kalman_stationary_mse; 'headline' is the stationary MSE with stationary=True, else the MSE at T. "
-      "kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures. progress: None or "
-      "progress(methods done, methods), as every long call takes it (docs/python.md); Ctrl-C stops the "
-      "comparison between methods' steps with KeyboardInterrupt.");
+      "file for blockdiag/banded, a continuous-time model file for sampled); methods are specifications. Returns one "
+      "dict per method "
+      "(pandas.DataFrame(rows) takes the list), each with the comparison's fields (steps, stationary, "
+      "kalman_final_mse, kalman_stationary_mse, kalman_bucy_mse, kalman_bucy_stationary_mse) and mse_curve; 'headline' "
+      "is the stationary MSE with stationary=True, else the MSE at T. "
+      "kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures. progress: None or progress(methods done, methods), "
+      "as every long call takes it (docs/python.md); Ctrl-C stops the comparison between methods' steps with "
+      "KeyboardInterrupt.");
 }
 
 }  // namespace kfx::python

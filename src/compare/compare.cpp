@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "compare/resolve_internal.hpp"
+#include "kfx/continuous.hpp"
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
 #include "kfx/riccati.hpp"
@@ -91,8 +92,35 @@ bool CompareOptions::IsValid(std::string* error) const {
   return e.empty();
 }
 
-Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& methods,
-                   const CompareOptions& options) {
+namespace {
+
+// A continuous-time model's weight is p x p on z (empty: I_p); the engine's is 2p x 2p on [z; int z].
+MatrixXd EmbeddedWeight(const ComparisonModel& truth, const MatrixXd& weight) {
+  const Eigen::Index p = truth.continuous->model.state_dim();
+  if (weight.size() != 0 && (weight.rows() != p || weight.cols() != p)) {
+    throw Error("weight: expected a " + std::to_string(p) + "x" + std::to_string(p) +
+                " matrix (the continuous state z of a continuous-time model), got " + std::to_string(weight.rows()) +
+                "x" + std::to_string(weight.cols()));
+  }
+  MatrixXd W = MatrixXd::Zero(2 * p, 2 * p);
+  W.topLeftCorner(p, p) = weight.size() == 0 ? MatrixXd::Identity(p, p) : weight;
+  return W;
+}
+
+// The Kalman-Bucy filter's error at T dt and its CARE (continuous-time models).
+void KalmanBucyReference(const ContinuousModelFile& c, const MatrixXd& W, int steps, Comparison* out) {
+  const Eigen::Index p = c.model.state_dim();
+  const MatrixXd Wz = W.topLeftCorner(p, p);
+  out->kalman_bucy_final = (Wz * KalmanBucyCovariance(c.model, steps * c.dt)).trace();
+  const CareSolution care = SolveFilterCare(c.model);
+  if (care.summary.ok()) out->kalman_bucy_stationary = (Wz * care.P).trace();
+}
+
+}  // namespace
+
+Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& methods, const CompareOptions& given) {
+  CompareOptions options = given;
+  if (truth.continuous) options.weight = EmbeddedWeight(truth, given.weight);
   std::string error;
   if (!options.IsValid(&error)) throw Error(error);
   const Model& model = truth.model;
@@ -114,6 +142,7 @@ Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& 
     const DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
     if (dare.summary.ok()) c.kalman_stationary = WeightedTrace(options.weight, dare.P_filt);
   }
+  if (truth.continuous) KalmanBucyReference(*truth.continuous, options.weight, options.steps, &c);
   if (options.stationary && std::isnan(c.kalman_stationary)) {
     throw Error("--stationary: needs a time-invariant model whose filter DARE has a stabilizing solution");
   }
@@ -142,6 +171,49 @@ Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& 
     if (options.progress) options.progress(++done, static_cast<long>(methods.size()));
   }
   return c;
+}
+
+namespace {
+
+CompareField Text(const std::string& name, const std::string& text, bool null_if_empty = false) {
+  CompareField f{name, CompareField::Kind::kText, text, 0.0, null_if_empty};
+  return f;
+}
+CompareField Of(const std::string& name, CompareField::Kind kind, double v) {
+  return CompareField{name, kind, std::string(), v, false};
+}
+
+}  // namespace
+
+std::vector<CompareField> CompareRowFields(const CompareRow& r, bool stationary) {
+  using K = CompareField::Kind;
+  return {Text("method", r.spec),
+          Text("description", r.description),
+          Text("online", r.online),
+          Of("state_dim", K::kInteger, static_cast<double>(r.state_dim)),
+          Of("offline_seconds", K::kNumber, r.offline_seconds),
+          Of("online_seconds_per_step", K::kNumber, r.online_seconds_per_step),
+          Of("memory_bytes", K::kNumber, r.memory_bytes),
+          Of("mse", K::kNumber, r.final_mse),
+          Of("stationary_mse", K::kNumber, r.stationary_mse),
+          Text("stationary_note", r.stationary_note, /*null_if_empty=*/true),
+          Of("headline", K::kNumber, stationary ? r.stationary_mse : r.final_mse),
+          Of("ratio_to_kalman", K::kNumber, r.ratio),
+          Of("claimed_mse", K::kNumber, r.claimed_final),
+          Of("claimed_stationary_mse", K::kNumber, r.claimed_stationary),
+          Of("monte_carlo_runs", K::kInteger, r.mc_runs),
+          Of("monte_carlo_mse", K::kNumber, r.mc_mse),
+          Of("monte_carlo_std_error", K::kNumber, r.mc_std_error)};
+}
+
+std::vector<CompareField> ComparisonFields(const Comparison& c) {
+  using K = CompareField::Kind;
+  return {Of("steps", K::kInteger, c.steps),
+          Of("stationary", K::kFlag, c.stationary ? 1.0 : 0.0),
+          Of("kalman_final_mse", K::kNumber, c.kalman_final),
+          Of("kalman_stationary_mse", K::kNumber, c.kalman_stationary),
+          Of("kalman_bucy_mse", K::kNumber, c.kalman_bucy_final),
+          Of("kalman_bucy_stationary_mse", K::kNumber, c.kalman_bucy_stationary)};
 }
 
 }  // namespace kfx

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <map>
 
@@ -28,8 +29,9 @@ const std::map<std::string, MethodTable>& Table() {
       {"coarse", {{"model", "prolongation"}, false, {"model", "prolongation"}}},
       {"tau", {{"order", "step", "modes", "basis", "weight"}, false, {}}},
       {"mu", {{"order", "step", "modes", "basis"}, false, {}}},
-      {"subspace", {{"basis", "gram", "gain"}, false, {"basis"}}},
-      {"subspace61", {{"basis", "gram"}, false, {"basis"}}},
+      {"subspace", {{"basis", "gram", "gain", "mesh"}, false, {}}},
+      {"subspace61", {{"basis", "gram", "mesh"}, false, {}}},
+      {"sampled", {{"dt", "gain"}, true, {"dt"}}},
       {"blockdiag", {{}, false, {}}},
       {"banded", {{}, false, {}}},
   };
@@ -53,6 +55,7 @@ std::vector<std::string> Choices(const std::string& method, const std::string& k
   if (key == "modes") return {"least-damped"};
   if (key == "gain" && method == "design") return {"steady", "schedule"};
   if (key == "gain" && method == "subspace") return {"schedule", "converged"};
+  if (key == "gain" && method == "sampled") return {"schedule", "steady"};
   return {};
 }
 
@@ -103,9 +106,20 @@ long MethodSpec::GetPositive(const std::string& key, long fallback) const {
   return value;
 }
 
+double MethodSpec::GetPositiveNumber(const std::string& key) const {
+  const std::string v = Get(key);
+  errno = 0;
+  char* end = nullptr;
+  const double value = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(value) || !(value > 0)) {
+    throw Error("method '" + text + "': " + key + ": expected a finite number > 0, got '" + v + "'");
+  }
+  return value;
+}
+
 const std::vector<std::string>& MethodNames() {
-  static const std::vector<std::string> names = {"kalman", "steady",   "design",     "coarse",    "tau",
-                                                 "mu",     "subspace", "subspace61", "blockdiag", "banded"};
+  static const std::vector<std::string> names = {"kalman",   "steady",     "design",  "coarse",    "tau",   "mu",
+                                                 "subspace", "subspace61", "sampled", "blockdiag", "banded"};
   return names;
 }
 
@@ -171,6 +185,11 @@ MethodSpec ParseMethodSpec(const std::string& text) {
     throw Error(where + spec.name + " needs order=N (or basis=FILE" + (spec.name == "tau" ? ", weight=FILE)" : ")"));
   }
   if (spec.Has("order")) spec.GetPositive("order", 0);
+  if ((spec.name == "subspace" || spec.name == "subspace61") && spec.Has("basis") == spec.Has("mesh")) {
+    throw Error(where + spec.name + " needs basis=FILE or mesh=N (one of them)");
+  }
+  if (spec.Has("mesh")) spec.GetPositive("mesh", 0);
+  if (spec.Has("dt")) spec.GetPositiveNumber("dt");
   return spec;
 }
 

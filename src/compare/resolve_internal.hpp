@@ -22,6 +22,7 @@ void RequireTimeInvariant(const MethodSpec& spec, const Model& model);
 
 ResolvedMethod ResolveKalmanFamily(const MethodSpec& spec, const ComparisonModel& truth, const MethodOptions& options);
 ResolvedMethod ResolveProjection(const MethodSpec& spec, const ComparisonModel& truth, const MethodOptions& options);
+ResolvedMethod ResolveSampled(const MethodSpec& spec, const ComparisonModel& truth, const MethodOptions& options);
 
 class Stopwatch {
  public:

@@ -1,9 +1,5 @@
 // Resolving a method specification against the true model (include/kfx/compare.hpp): the dispatch by
 // method name, the helpers the resolvers share (resolve_internal.hpp), and reading the true model.
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <sstream>
-
 #include "compare/resolve_internal.hpp"
 #include "kfx/coupled_model_file.hpp"
 #include "kfx/error.hpp"
@@ -47,23 +43,19 @@ void RequireTimeInvariant(const MethodSpec& spec, const Model& model) {
 }  // namespace detail
 
 ComparisonModel LoadComparisonModel(const std::string& path) {
-  std::string format;
-  {
-    std::ifstream in(path);
-    if (in) {
-      std::stringstream text;
-      text << in.rdbuf();
-      const nlohmann::json j = nlohmann::json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
-      if (j.is_object() && j.contains("format") && j["format"].is_string()) format = j["format"].get<std::string>();
-    }
+  const std::string format = JsonFileFormat(path);
+  if (format == "kfx-continuous-model") {
+    ContinuousModelFile file = LoadContinuousModel(path);
+    Model sampled = SampledAtFileGrid(file);
+    return ComparisonModel{std::move(sampled), std::nullopt, std::move(file)};
   }
   if (format == "kfx-coupled-model") {
     const CoupledModelHeader header = ReadCoupledModelHeader(path);
     CoupledSystem system = LoadCoupledModelSlice(path, 0, header.n);
     Model dense = ToDenseModel(system);
-    return ComparisonModel{std::move(dense), std::move(system)};
+    return ComparisonModel{std::move(dense), std::move(system), std::nullopt};
   }
-  return ComparisonModel{LoadModel(path), std::nullopt};
+  return ComparisonModel{LoadModel(path), std::nullopt, std::nullopt};
 }
 
 ResolvedMethod ResolveMethod(const MethodSpec& spec, const ComparisonModel& truth, const MethodOptions& options) {
@@ -74,7 +66,8 @@ ResolvedMethod ResolveMethod(const MethodSpec& spec, const ComparisonModel& trut
   const detail::Stopwatch clock;
   ResolvedMethod r = (n == "tau" || n == "mu" || n == "subspace" || n == "subspace61")
                          ? detail::ResolveProjection(checked, truth, options)
-                         : detail::ResolveKalmanFamily(checked, truth, options);
+                     : n == "sampled" ? detail::ResolveSampled(checked, truth, options)
+                                      : detail::ResolveKalmanFamily(checked, truth, options);
   r.offline_seconds = clock.Seconds();
   r.spec = checked;
   if (!r.run) {

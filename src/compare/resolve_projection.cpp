@@ -3,6 +3,7 @@
 // subspace-optimal filter of 000 (Algorithm 2.3) and its Sec. 6.1 approximation. Each becomes the
 // LinearFilter of its adapter and runs on data as that recursion.
 #include "compare/resolve_internal.hpp"
+#include "kfx/damped_wave.hpp"
 #include "kfx/error.hpp"
 #include "kfx/reduced_order.hpp"
 #include "kfx/riccati.hpp"
@@ -131,9 +132,41 @@ ResolvedMethod Mu(const MethodSpec& spec, const Model& model, int T) {
   return r;
 }
 
+MatrixXd BlockDiag2(const MatrixXd& a, const MatrixXd& b) {
+  MatrixXd out = MatrixXd::Zero(a.rows() + b.rows(), a.cols() + b.cols());
+  out.topLeftCorner(a.rows(), a.cols()) = a;
+  out.bottomRightCorner(b.rows(), b.cols()) = b;
+  return out;
+}
+
+// mesh=N_c: the coarse space of nested P1 meshes on [0, 1] (the damped-wave builder of 000): the true
+// state is x = (z, v) on the N_f = n / 2 interior fine nodes; the basis blkdiag(E, E) with E the
+// coarse-to-fine prolongation, the Gram matrix blkdiag(stiffness, mass) of the fine mesh.
+void MeshSubspace(const MethodSpec& spec, Index n, MatrixXd* E, MatrixXd* W) {
+  const long coarse = spec.GetPositive("mesh", 0);
+  if (n % 2 != 0) {
+    throw Error(Where(spec) + "mesh: expected a state x = (z, v) on the fine mesh's nodes (n even), got n = " + Str(n));
+  }
+  const long fine = static_cast<long>(n / 2);
+  if (coarse >= fine || (fine + 1) % (coarse + 1) != 0) {
+    throw Error(
+        Where(spec) + "mesh=" + std::to_string(coarse) + ": the meshes are not nested: the fine mesh has " +
+        std::to_string(fine) + " interior nodes (n = " + Str(n) + "), and fine + 1 = " + std::to_string(fine + 1) +
+        " must be a multiple of mesh + 1 = " + std::to_string(coarse + 1) + " with mesh < " + std::to_string(fine));
+  }
+  const MatrixXd P = P1Prolongation(static_cast<int>(fine), static_cast<int>(coarse));
+  *E = BlockDiag2(P, P);
+  *W = BlockDiag2(P1Stiffness(static_cast<int>(fine)), P1Mass(static_cast<int>(fine)));
+}
+
 Subspace ReadSubspace(const MethodSpec& spec, Index n) {
-  const MatrixXd E = ReadShaped(spec, "basis", n, "basis");
-  const MatrixXd W = spec.Has("gram") ? ReadMatrixParameter(spec, "gram") : MatrixXd();
+  MatrixXd E, W;
+  if (spec.Has("mesh")) {
+    MeshSubspace(spec, n, &E, &W);
+  } else {
+    E = ReadShaped(spec, "basis", n, "basis");
+  }
+  if (spec.Has("gram")) W = ReadMatrixParameter(spec, "gram");
   if (spec.Has("gram") && (W.rows() != n || W.cols() != n)) {
     throw Error(Where(spec) + "gram: expected a " + ShapeString(n, n) + " matrix, got " + ShapeString(W));
   }

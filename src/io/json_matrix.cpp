@@ -12,6 +12,7 @@
 
 #include "io/io_internal.hpp"
 #include "kfx/error.hpp"
+#include "kfx/io.hpp"
 #include "kfx/validation.hpp"
 
 namespace kfx::detail {
@@ -184,3 +185,18 @@ std::string JsonNpyReference(const Json& v, const JsonField& field) {
 }
 
 }  // namespace kfx::detail
+
+namespace kfx {
+
+std::string JsonFileFormat(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return "";  // a FIFO would block the open
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "";
+  std::ostringstream text;
+  text << in.rdbuf();
+  const detail::Json j = detail::Json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
+  return j.is_object() && j.contains("format") && j["format"].is_string() ? j["format"].get<std::string>() : "";
+}
+
+}  // namespace kfx

@@ -73,4 +73,35 @@ fail "method 'blockdiag': blockdiag needs a coupled model" compare "$chain" --me
 fail "method 'kalmann': unknown method" compare "$chain" --method kalmann
 fail "method 'tau:ordr=2': unknown parameter 'ordr'" filter "$chain" --method tau:ordr=2 --data "$tmp/sim/y.npy" -o "$tmp/x"
 fail "weight: " compare "$chain" --method steady --weight "$tmp/E.npy"
+# A continuous-time model file (paper 003): simulate, filter and compare read it as its exact discrete
+# equivalent at its dt; sampled:dt=0.05 (its own dt) is the Kalman filter; every sampled row is at least the
+# Kalman filter's, which is at least the Kalman-Bucy filter's.
+osc="$src/examples/continuous/oscillator.json"
+"$kfx" simulate "$osc" --steps 40 --seed 3 -o "$tmp/osc_sim" > /dev/null
+"$kfx" filter "$osc" --data "$tmp/osc_sim/y.npy" -o "$tmp/osc_kf" > /dev/null
+"$kfx" filter "$osc" --method sampled:dt=0.05 --data "$tmp/osc_sim/y.npy" -o "$tmp/osc_s1" > /dev/null
+"$kfx" filter "$osc" --method sampled:dt=0.2 --data "$tmp/osc_sim/y.npy" -o "$tmp/osc_s4" > /dev/null
+"$kfx" compare "$osc" --steps 40 --method kalman --method sampled:dt=0.1 --method sampled:dt=0.4,gain=steady \
+  --json "$tmp/osc.json" > /dev/null
+/usr/bin/python3 - "$tmp" <<'PY'
+import json, sys
+import numpy as np
+d = sys.argv[1]
+a, b, c = (np.load(f"{d}/{x}/x_filt.npy") for x in ("osc_kf", "osc_s1", "osc_s4"))
+assert a.shape == b.shape == c.shape == (41, 4), (a.shape, b.shape, c.shape)
+assert np.abs(a[:, :2] - b[:, :2]).max() < 1e-12  # z = the first p columns
+assert np.all(c[:, 2:] == 0)  # the sampled filter forms no estimate of the step integral
+j = json.load(open(f"{d}/osc.json"))
+assert j["kalman_bucy_mse"] < j["kalman_final_mse"] and j["kalman_bucy_stationary_mse"] < j["kalman_stationary_mse"], j
+for r in j["rows"]:
+    assert r["mse"] >= j["kalman_final_mse"] * (1 - 1e-10), r
+print("continuous model: Kalman-Bucy", j["kalman_bucy_mse"], "<= Kalman", j["kalman_final_mse"], "<= every row")
+PY
+fail "method 'sampled:dt=0': dt: expected a finite number > 0" compare "$osc" --method sampled:dt=0
+fail "method 'sampled:dt=0.07': dt=0.07 is not a positive integer multiple" compare "$osc" --method sampled:dt=0.07
+fail "method 'sampled:0.1': sampled needs a continuous-time model" compare "$chain" --method sampled:0.1
+fail "method 'subspace:mesh=2': mesh=2: the meshes are not nested" compare "$chain" --method subspace:mesh=2
+sed 's/"dt": 0.05/"dt": -1/' "$osc" > "$tmp/osc_bad.json"
+fail "osc_bad.json: field 'dt': expected a finite number > 0" compare "$tmp/osc_bad.json" --method kalman
+fail "osc_bad.json: field 'dt': expected a finite number > 0" filter "$tmp/osc_bad.json" --data "$tmp/osc_sim/y.npy" -o "$tmp/x"
 echo "compare.sh: ok"

@@ -203,7 +203,7 @@ TEST_F(CompareTest, EveryBadSpecAgainstTheModelIsOneErrorNamingIt) {
   WriteNpyMatrix(Path("Lwide.npy"), MatrixXd::Identity(2, 9));
   const ModelStep s = *truth_->model.step(1);
   const ComparisonModel varying{Model(std::vector<ModelStep>{s, s, s}, truth_->model.m0(), truth_->model.P0()),
-                                std::nullopt};
+                                std::nullopt, std::nullopt};
   MethodOptions mo;
   mo.steps = 3;
   const std::vector<std::pair<std::string, std::string>> bad = {

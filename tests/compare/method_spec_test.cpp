@@ -28,9 +28,10 @@ TEST(MethodSpec, BareNamesAndPositionalValues) {
   const MethodSpec d = ParseMethodSpec("design:models/low q.json,gain=schedule");
   EXPECT_EQ(d.Get("model"), "models/low q.json");
   EXPECT_EQ(d.Get("gain"), "schedule");
+  EXPECT_EQ(ParseMethodSpec("sampled:0.25").GetPositiveNumber("dt"), 0.25);
   for (const std::string& name : MethodNames()) {
     if (name == "design" || name == "coarse" || name == "subspace" || name == "subspace61" || name == "tau" ||
-        name == "mu") {
+        name == "mu" || name == "sampled") {
       continue;  // these need parameters
     }
     EXPECT_EQ(ParseMethodSpec(name).name, name);
@@ -60,7 +61,13 @@ TEST(MethodSpec, EveryBadSpecIsOneErrorNamingIt) {
       {"kalman:form=cholesky", "form: expected one of 'joseph'"},
       {"design", "design needs model=..."},
       {"coarse:model=c.json", "coarse needs prolongation=..."},
-      {"subspace:gram=W.npy", "subspace needs basis=..."},
+      {"subspace:gram=W.npy", "subspace needs basis=FILE or mesh=N"},
+      {"subspace:mesh=3,basis=E.npy", "subspace needs basis=FILE or mesh=N (one of them)"},
+      {"subspace61:mesh=two", "mesh: expected a positive integer"},
+      {"sampled", "sampled needs dt=..."},
+      {"sampled:dt=0", "dt: expected a finite number > 0, got '0'"},
+      {"sampled:-0.5", "dt: expected a finite number > 0, got '-0.5'"},
+      {"sampled:dt=1e999", "dt: expected a finite number > 0"},
       {"subspace:basis=E.npy,gain=steady", "gain: expected one of 'schedule', 'converged'"},
   };
   for (const auto& [text, what] : bad) {

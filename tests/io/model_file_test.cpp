@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 
+#include "kfx/continuous_model_file.hpp"
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/model.hpp"
@@ -565,7 +566,7 @@ std::vector<std::string> DocJsonBlocks() {
 
 TEST(ModelFileExamplesTest, DocsWorkedExamplesLoad) {
   const std::vector<std::string> blocks = DocJsonBlocks();
-  ASSERT_EQ(blocks.size(), 3u);
+  ASSERT_EQ(blocks.size(), 4u);
   // 1: the constant-velocity file, verbatim.
   std::ifstream in(kModels + "constant_velocity.json");
   EXPECT_EQ(blocks[0], std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
@@ -580,6 +581,18 @@ TEST(ModelFileExamplesTest, DocsWorkedExamplesLoad) {
   EXPECT_EQ(tv.horizon(), 3);
   EXPECT_EQ(tv.step(3)->R(0, 0), 4.0);
   EXPECT_TRUE(SameBits(tv.step(2)->Q, LoadModel(kModels + "constant_velocity.json").step(1)->Q));
+  // 4: the continuous-time model file, the same model as examples/continuous/oscillator.json.
+  std::ofstream((dir / "osc.json").string()) << blocks[3];
+  const ContinuousModelFile doc = LoadContinuousModel((dir / "osc.json").string());
+  const ContinuousModelFile file = LoadContinuousModel(kModels + "../continuous/oscillator.json");
+  EXPECT_EQ(doc.dt, file.dt);
+  for (const auto& [a, b] : {std::pair{&doc.model.A, &file.model.A},
+                             {&doc.model.Q, &file.model.Q},
+                             {&doc.model.C, &file.model.C},
+                             {&doc.model.R, &file.model.R},
+                             {&doc.model.P0, &file.model.P0}}) {
+    EXPECT_TRUE(SameBits(*a, *b));
+  }
   fs::remove_all(dir);
 }
 

@@ -408,7 +408,7 @@ def test_compare_rows_against_the_kalman_filter_and_monte_carlo(root, tmp_path):
     chain = os.path.join(root, "examples", "models", "mass_spring_chain.json")
     rows = kfx.compare(chain, ["kalman", "steady", "tau:order=4,step=two-da"], steps=30, monte_carlo=300, seed=3)
     assert [r["method"] for r in rows] == ["kalman", "steady", "tau:order=4,step=two-da"]
-    ref = rows[0]["kalman_mse"]
+    ref = rows[0]["kalman_final_mse"]
     assert abs(rows[0]["mse"] - ref) <= 1e-8 * ref  # the Kalman row is the Riccati recursion's tr P_{T|T}
     assert abs(rows[1]["stationary_mse"] - rows[1]["kalman_stationary_mse"]) <= 1e-8 * rows[1]["stationary_mse"]
     for r in rows:
@@ -420,3 +420,21 @@ def test_compare_rows_against_the_kalman_filter_and_monte_carlo(root, tmp_path):
     assert kfx.parse_method("tau:order=4,step=two-da") == ("tau", {"order": "4", "step": "two-da"})
     written = kfx.plots.save(kfx.plots.compare_pareto(rows), str(tmp_path / "pareto.png"))
     assert all(os.path.getsize(p) > 0 for p in written)
+
+
+def test_compare_sampled_filters_of_a_continuous_model_file(root):
+    """sampled:dt=H on examples/continuous/oscillator.json: the library's P_{T,n}, between the Kalman filter
+    and the Kalman-Bucy filter (kfx.kalman_bucy_covariance), Monte Carlo within its interval."""
+    osc = os.path.join(root, "examples", "continuous", "oscillator.json")
+    rows = kfx.compare(osc, ["kalman", "sampled:dt=0.1", "sampled:dt=0.4"], steps=40, monte_carlo=300, seed=4)
+    cm = kfx.ContinuousModel(A=[[0, 1], [-1, -0.4]], C=[[1, 0]], Q=[[0, 0], [0, 0.5]], B=np.eye(2), R=[[0.02]],
+                             m0=[0, 0], P0=np.eye(2))
+    for r, n in zip(rows[1:], (20, 5)):
+        library = np.trace(kfx.sampled_filter_covariance(cm, 2.0, n))
+        assert abs(r["mse"] - library) <= 1e-9 * library, (r["method"], r["mse"], library)
+        assert abs(r["monte_carlo_mse"] - r["mse"]) <= 4 * r["monte_carlo_std_error"]
+    bucy = np.trace(kfx.kalman_bucy_covariance(cm, 2.0))
+    assert abs(rows[0]["kalman_bucy_mse"] - bucy) <= 1e-12 * bucy
+    assert bucy < rows[0]["kalman_final_mse"] <= rows[1]["mse"] < rows[2]["mse"]
+    with pytest.raises(kfx.Error, match="method 'sampled:dt=0.07': dt=0.07 is not a positive integer multiple"):
+        kfx.compare(osc, ["sampled:dt=0.07"])
