@@ -9,7 +9,7 @@ whose doc comments the docstrings summarize.
     import kfx
     model = kfx.Model(A=..., C=..., Q=..., R=..., m0=..., P0=...)
     x, y = kfx.simulate(model, steps=100, seed=1)
-    run = kfx.run_filter(model, y)            # or kfx.KalmanFilter (FilterPy names)
+    run = kfx.run_filter(model, y, store_covariances="full")  # or kfx.KalmanFilter
     smooth = kfx.rts_smooth(model, run)
     kfx.exact_performance(model, kfx.kalman_as_linear_filter(model, 100)).mse
 
