@@ -118,7 +118,8 @@ void BM_SteadyStep(benchmark::State& state) {
   double diff = 0.0;
   for (int j = 1; j <= kGroup; ++j) {
     running.Step(s, y.row(j - 1).transpose());
-    diff = std::max(diff, (x.row(j).transpose() - running.x()).cwiseAbs().maxCoeff() / running.x().cwiseAbs().maxCoeff());
+    diff =
+        std::max(diff, (x.row(j).transpose() - running.x()).cwiseAbs().maxCoeff() / running.x().cwiseAbs().maxCoeff());
   }
   for (auto _ : state) {
     x.row(0) = x.row(kGroup);
@@ -145,8 +146,8 @@ void BM_Triad(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   state.counters["n"] = static_cast<double>(state.range(0));
-  state.counters["GBps"] = benchmark::Counter(24.0 * static_cast<double>(m) * 1e-9,
-                                              benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["GBps"] =
+      benchmark::Counter(24.0 * static_cast<double>(m) * 1e-9, benchmark::Counter::kIsIterationInvariantRate);
 }
 
 }  // namespace

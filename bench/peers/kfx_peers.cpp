@@ -338,9 +338,9 @@ int Kf(const std::string& dir, int n, int reps, int cov_steps, double tol) {
             << ", \"run_rss_growth_mb\": " << Num(run_growth) << ", \"run_outputs_mb\": " << Num(outputs_mb)
             << ", \"covariance_mb\": " << Num(covariance_mb) << ", \"loglik\": " << Num(run.log_likelihood)
             << ", \"steps\": " << Y.rows() << ", \"steady_state_steps\": " << run.steady_state_steps
-            << ", \"kfx_full\": " << JsonList(t_full) << ", \"kfx_full_steps_timed\": " << full_steps << ", \"eigen_fixed\": " << JsonList(t_fixed)
-            << ", \"eigen_fixed_x_diff\": " << Num(fixed_diff) << ", \"eigen_fixed_loglik_diff\": " << Num(fixed_loglik_diff)
-            << "}\n";
+            << ", \"kfx_full\": " << JsonList(t_full) << ", \"kfx_full_steps_timed\": " << full_steps
+            << ", \"eigen_fixed\": " << JsonList(t_fixed) << ", \"eigen_fixed_x_diff\": " << Num(fixed_diff)
+            << ", \"eigen_fixed_loglik_diff\": " << Num(fixed_loglik_diff) << "}\n";
   return 0;
 }
 

@@ -89,7 +89,8 @@ void BindCompare(py::module_& m) {
       "(pandas.DataFrame(rows) takes the list), each with the comparison's fields (steps, stationary, "
       "kalman_final_mse, kalman_stationary_mse, kalman_bucy_mse, kalman_bucy_stationary_mse) and mse_curve; 'headline' "
       "is the stationary MSE with stationary=True, else the MSE at T. "
-      "kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures. progress: None or progress(methods done, methods), "
+      "kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures. progress: None or "
+      "progress(methods done, methods), "
       "as every long call takes it (docs/python.md); Ctrl-C stops the comparison between methods' steps with "
       "KeyboardInterrupt.");
 }

@@ -34,9 +34,14 @@ void BindFilterPyKalmanFilter(py::module_& m) {
       "measurement noise covariance (dim_z, dim_z); a number r means r 1 1^T, as in FilterPy",
       "control transition (dim_x, dim_u) or None",
       "process-measurement cross-covariance (dim_x, dim_z), used by update_correlated",
-      "x after the last predict", "P after the last predict", "x after the last update", "P after the last update",
-      "gain of the last update (dim_x, dim_z)", "residual z - H x of the last update",
-      "innovation covariance H P H^T + R of the last update", "the last measurement (None before any)"};
+      "x after the last predict",
+      "P after the last predict",
+      "x after the last update",
+      "P after the last update",
+      "gain of the last update (dim_x, dim_z)",
+      "residual z - H x of the last update",
+      "innovation covariance H P H^T + R of the last update",
+      "the last measurement (None before any)"};
   for (int a = 0; a < KF::kNumAttrs; ++a) {
     cls.def_property(
         KF::Name(a), [a](KF& f) { return f.Get(a); }, [a](KF& f, py::handle v) { f.Set(a, v); }, kDocs[a]);
@@ -98,7 +103,8 @@ void BindFilterPyKalmanFilter(py::module_& m) {
            "to k+1): returns (x, P, K, Pp) as FilterPy: K the smoother gains (zero last), Pp the predicted "
            "covariances with Pp[-1] = Ps[-1].")
       .def("get_prediction", &KF::GetPrediction, py::arg("u") = py::none(), py::arg("B") = py::none(),
-           py::arg("F") = py::none(), py::arg("Q") = py::none(), "(x, P) predict() would give; the filter is unchanged.")
+           py::arg("F") = py::none(), py::arg("Q") = py::none(),
+           "(x, P) predict() would give; the filter is unchanged.")
       .def("get_update", &KF::GetUpdate, py::arg("z") = py::none(),
            "(x, P) update(z) would give; the filter is unchanged (z None: the current x, P).")
       .def("residual_of", &KF::ResidualOf, py::arg("z"), "z - H x_prior.")

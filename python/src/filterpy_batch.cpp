@@ -29,9 +29,8 @@ std::optional<py::sequence> StepList(py::handle v, const char* name, size_t step
 
 }  // namespace
 
-py::tuple FilterPyKalmanFilter::BatchFilter(py::handle zs, py::handle Fs, py::handle Qs, py::handle Hs,
-                                            py::handle Rs, py::handle Bs, py::handle us, bool update_first,
-                                            py::handle saver) {
+py::tuple FilterPyKalmanFilter::BatchFilter(py::handle zs, py::handle Fs, py::handle Qs, py::handle Hs, py::handle Rs,
+                                            py::handle Bs, py::handle us, bool update_first, py::handle saver) {
   // The measurements: a (T, m), (T, m, 1) or (T,) (m = 1) float array, or a sequence whose items are
   // measurements or None.
   // (T x m, row i = zs[i]; has[i] == 0: None).
@@ -203,11 +202,13 @@ py::tuple FilterPyKalmanFilter::RtsSmoother(py::handle Xs, py::handle Ps, py::ha
   if (py::len(Xs) != py::len(Ps)) throw Error("Xs, Ps: the length of Xs and Ps must be the same");
   const py::array xa = ToFloatArray(Xs), pa = ToFloatArray(Ps);
   const py::ssize_t T = xa.ndim() >= 1 ? xa.shape(0) : 0;
-  if (T < 1 || xa.size() != T * n_ || xa.ndim() > 3 || (xa.ndim() >= 2 && xa.shape(1) != n_) || (xa.ndim() == 1 && n_ != 1))
-    throw Error("Xs: expected shape (T, " + std::to_string(n_) + ") or (T, " + std::to_string(n_) + ", 1), T >= 1, got " +
-                NumpyShapeString(xa));
+  if (T < 1 || xa.size() != T * n_ || xa.ndim() > 3 || (xa.ndim() >= 2 && xa.shape(1) != n_) ||
+      (xa.ndim() == 1 && n_ != 1))
+    throw Error("Xs: expected shape (T, " + std::to_string(n_) + ") or (T, " + std::to_string(n_) +
+                ", 1), T >= 1, got " + NumpyShapeString(xa));
   if (pa.ndim() != 3 || pa.shape(1) != n_ || pa.shape(2) != n_)
-    throw Error("Ps: expected shape (T, " + std::to_string(n_) + ", " + std::to_string(n_) + "), got " + NumpyShapeString(pa));
+    throw Error("Ps: expected shape (T, " + std::to_string(n_) + ", " + std::to_string(n_) + "), got " +
+                NumpyShapeString(pa));
   const size_t steps = static_cast<size_t>(T);
   const auto fseq = StepList(Fs, "Fs", steps), qseq = StepList(Qs, "Qs", steps);
   const RowMat F0 = slots_[kF].View("F"), Q0 = slots_[kQ].View("Q");

@@ -55,12 +55,12 @@ Eigen::Map<const RowMat> Slot::View(const char* name) const {
   const Eigen::Index rows = value.rows(), cols = value.cols();
   if (!array) return {value.data(), rows, cols};
   const auto a = py::reinterpret_borrow<py::array>(array);
-  const bool shape_ok = vector ? (a.ndim() == 1 && a.shape(0) == rows)
-                               : (a.ndim() == 2 && a.shape(0) == rows && a.shape(1) == cols);
+  const bool shape_ok =
+      vector ? (a.ndim() == 1 && a.shape(0) == rows) : (a.ndim() == 2 && a.shape(0) == rows && a.shape(1) == cols);
   if (!shape_ok || !IsPlainArray(array)) {
     throw Error(std::string(name) + ": the array was changed in place to shape " + NumpyShapeString(a) +
-                " or another dtype; expected float64 " + (vector ? "(" + std::to_string(rows) + ",)" : Shape(rows, cols)) +
-                " (assign a new array instead)");
+                " or another dtype; expected float64 " +
+                (vector ? "(" + std::to_string(rows) + ",)" : Shape(rows, cols)) + " (assign a new array instead)");
   }
   return MapArray(a, rows, cols);
 }
@@ -68,7 +68,8 @@ Eigen::Map<const RowMat> Slot::View(const char* name) const {
 py::object Slot::Get() {
   if (none) return py::none();
   if (!array) {
-    py::array_t<double> a = vector ? py::array_t<double>(value.rows()) : py::array_t<double>({value.rows(), value.cols()});
+    py::array_t<double> a =
+        vector ? py::array_t<double>(value.rows()) : py::array_t<double>({value.rows(), value.cols()});
     std::copy(value.data(), value.data() + value.size(), a.mutable_data());
     array = std::move(a);
   }
@@ -134,7 +135,7 @@ FilterPyKalmanFilter::FilterPyKalmanFilter(const Model& model)
 }
 
 const char* FilterPyKalmanFilter::Name(int a) {
-  static const char* const kNames[kNumAttrs] = {"x",       "P",      "F",     "H",      "Q", "R", "B", "M",
+  static const char* const kNames[kNumAttrs] = {"x",       "P",       "F",      "H",      "Q", "R", "B", "M",
                                                 "x_prior", "P_prior", "x_post", "P_post", "K", "y", "S", "z"};
   return kNames[a];
 }
@@ -179,8 +180,11 @@ void FilterPyKalmanFilter::Set(int a, py::handle v, bool check) {
   }
   const bool state_vector = a == kX || a == kXPrior || a == kXPost || a == kY || a == kZ;
   const Eigen::Index rows = (a == kH || a == kR || a == kY || a == kZ || a == kS) ? m_ : n_;
-  const Eigen::Index cols = state_vector ? 1 : (a == kB ? -1 : (a == kH || a == kF || a == kQ || a == kP ||
-                                                                a == kPPrior || a == kPPost) ? n_ : m_);
+  const Eigen::Index cols = state_vector
+                                ? 1
+                                : (a == kB                                                                     ? -1
+                                   : (a == kH || a == kF || a == kQ || a == kP || a == kPPrior || a == kPPost) ? n_
+                                                                                                               : m_);
   RowMat value;
   bool vector = false;
   if (state_vector) {
@@ -298,8 +302,7 @@ void FilterPyKalmanFilter::Prediction(const CRef& F, const CRef& Q, const Eigen:
 }
 
 void FilterPyKalmanFilter::Correction(const Eigen::VectorXd& z, const CRef& H, const CRef& R, const RowMat* M,
-                                      const std::vector<Eigen::Index>& obs, bool joseph, RowMat& x_out,
-                                      RowMat& P_out) {
+                                      const std::vector<Eigen::Index>& obs, bool joseph, RowMat& x_out, RowMat& P_out) {
   const auto x = slots_[kX].View("x");
   const auto P = slots_[kP].View("P");
   const bool small = n_ <= kSmallMax && static_cast<Eigen::Index>(obs.size()) <= kSmallMax;
@@ -366,17 +369,18 @@ void FilterPyKalmanFilter::Update(py::handle z, py::handle R, py::handle H, bool
   const CRef Hr = H.is_none() ? CRef(slots_[kH].View("H")) : CRef(Ha = Matrix(H, "H", -1, n_, Scalar::kNone));
   const Eigen::Index k = Hr.rows();
   const CRef Rr = R.is_none() ? CRef(slots_[kR].View("R")) : CRef(Ra = Matrix(R, "R", k, k, Scalar::kIdentity));
-  if (Rr.rows() != k) throw Error("R: expected shape " + Shape(k, k) + " (the rows of H), got " + Shape(Rr.rows(), Rr.cols()));
+  if (Rr.rows() != k)
+    throw Error("R: expected shape " + Shape(k, k) + " (the rows of H), got " + Shape(Rr.rows(), Rr.cols()));
   if (correlated) {
     Ma = slots_[kM].View("M");
-    if (Ma.cols() != k) throw Error("M: expected " + std::to_string(k) + " columns (the rows of H), got " + std::to_string(Ma.cols()));
+    if (Ma.cols() != k)
+      throw Error("M: expected " + std::to_string(k) + " columns (the rows of H), got " + std::to_string(Ma.cols()));
   }
   const Eigen::VectorXd zv = Measurement(z, k, "z");
   UpdateStep(&zv, Hr, Rr, correlated ? &Ma : nullptr);
 }
 
-void FilterPyKalmanFilter::UpdateStep(const Eigen::VectorXd* z, const CRef& H, const CRef& R,
-                                      const RowMat* M) {
+void FilterPyKalmanFilter::UpdateStep(const Eigen::VectorXd* z, const CRef& H, const CRef& R, const RowMat* M) {
   if (!z) return SkipUpdate();
   const Eigen::VectorXd& zv = *z;
   const Eigen::Index k = H.rows();
@@ -448,8 +452,8 @@ void FilterPyKalmanFilter::UpdateSequential(Eigen::Index start, py::handle z, py
   const Eigen::Index len = za.ndim() == 0 ? 1 : za.shape(0);
   if (za.size() != len) throw Error("z_i: expected a number or shape (k,) / (k, 1), got shape " + NumpyShapeString(za));
   if (start < 0 || start + len > m_) {
-    throw Error("start: expected rows start .. start + " + std::to_string(len) + " within dim_z = " +
-                std::to_string(m_) + ", got start = " + std::to_string(start));
+    throw Error("start: expected rows start .. start + " + std::to_string(len) +
+                " within dim_z = " + std::to_string(m_) + ", got start = " + std::to_string(start));
   }
   const Eigen::VectorXd zv = Eigen::Map<const Eigen::VectorXd>(static_cast<const double*>(za.data()), len);
   const RowMat Hi = H.is_none() ? RowMat(slots_[kH].View("H").middleRows(start, len))
@@ -459,8 +463,8 @@ void FilterPyKalmanFilter::UpdateSequential(Eigen::Index start, py::handle z, py
   std::vector<Eigen::Index> obs;
   for (Eigen::Index i = 0; i < len; ++i)
     if (!std::isnan(zv(i))) obs.push_back(i);
-  RowMat y = slots_[kY].View("y"), K = slots_[kK].View("K"), zs = slots_[kZ].none ? RowMat::Constant(m_, 1, kNaN)
-                                                                                 : RowMat(slots_[kZ].View("z"));
+  RowMat y = slots_[kY].View("y"), K = slots_[kK].View("K"),
+         zs = slots_[kZ].none ? RowMat::Constant(m_, 1, kNaN) : RowMat(slots_[kZ].View("z"));
   zs.middleRows(start, len) = zv;
   if (!obs.empty()) {
     Correction(zv, Hi, Ri, nullptr, obs, joseph_, x1_, P1_);
@@ -573,7 +577,9 @@ double FilterPyKalmanFilter::Mahalanobis() {
 }
 
 void FilterPyKalmanFilter::SetLikelihoods(py::handle log_likelihood, py::handle likelihood, py::handle mahalanobis) {
-  auto opt = [](py::handle v) { return v.is_none() ? std::optional<double>() : std::optional<double>(v.cast<double>()); };
+  auto opt = [](py::handle v) {
+    return v.is_none() ? std::optional<double>() : std::optional<double>(v.cast<double>());
+  };
   log_likelihood_ = opt(log_likelihood);
   likelihood_ = opt(likelihood);
   mahalanobis_ = opt(mahalanobis);

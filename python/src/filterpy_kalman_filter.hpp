@@ -23,10 +23,10 @@ using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowM
 using CRef = Eigen::Ref<const RowMat>;
 
 struct Slot {
-  RowMat value;            // the value while `array` is null (rows x cols; a vector is rows x 1)
-  py::object array;        // the numpy array Python holds (float64, C order): the truth while set
-  bool vector = false;     // shown as a 1-D array of value.rows() entries
-  bool none = false;       // B (no control input) and z (before any measurement): None
+  RowMat value;         // the value while `array` is null (rows x cols; a vector is rows x 1)
+  py::object array;     // the numpy array Python holds (float64, C order): the truth while set
+  bool vector = false;  // shown as a 1-D array of value.rows() entries
+  bool none = false;    // B (no control input) and z (before any measurement): None
   // The current value as a matrix (the array's buffer, its shape checked: it may have been changed
   // in place). `name` names the attribute in errors.
   Eigen::Map<const RowMat> View(const char* name) const;
@@ -101,8 +101,8 @@ class FilterPyKalmanFilter {
   void SkipUpdate();
   // batch_filter's common case through kfx::RunFilter (filterpy_batch.cpp; nullopt: not applicable),
   // then its outputs and the attributes of its last step.
-  std::optional<FilterRun> LibraryRun(const RowMat& Z, const std::vector<char>& has, const RowMat& F,
-                                      const RowMat& H, const RowMat& Q, const RowMat& R);
+  std::optional<FilterRun> LibraryRun(const RowMat& Z, const std::vector<char>& has, const RowMat& F, const RowMat& H,
+                                      const RowMat& Q, const RowMat& R);
   void PublishLibraryRun(const FilterRun& run, const RowMat& Z, const std::vector<char>& has, const RowMat& H,
                          const RowMat& R, double* mu, double* cv, double* mu_p, double* cv_p);
   void ResetLikelihoods() { log_likelihood_.reset(), likelihood_.reset(), mahalanobis_.reset(); }

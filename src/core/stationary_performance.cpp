@@ -46,8 +46,8 @@ void SolveStateBlock(StationaryTruth::Impl* t) {
   sum.method = "schur";
   if (!t->schur.ok()) {
     sum.termination = Termination::kFailed;
-    sum.message = "the QR algorithm failed to compute the Schur form of A (DGEES info " +
-                  std::to_string(t->schur.info) + ")";
+    sum.message =
+        "the QR algorithm failed to compute the Schur form of A (DGEES info " + std::to_string(t->schur.info) + ")";
     return;
   }
   t->rho = t->schur.SpectralRadius();
@@ -110,8 +110,8 @@ void SolveJointByBlocks(const StationaryTruth::Impl& t, const LinearFilterStep& 
 bool SolveErrorCoordinates(const ModelStep& s, const LinearFilterStep& f, double rho_a, double rho_phi,
                            StationaryPerformance* out) {
   const Eigen::Index n = s.A.rows();
-  bool consistent = f.Phi.rows() == n &&
-                    (f.O.size() == 0 || (f.O - MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff() <= 1e-12);
+  bool consistent =
+      f.Phi.rows() == n && (f.O.size() == 0 || (f.O - MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff() <= 1e-12);
   if (!consistent || !(rho_phi < 1.0)) return false;
   MatrixXd IKC = MatrixXd::Identity(n, n);
   IKC.noalias() -= f.K * s.C;

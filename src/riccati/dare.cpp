@@ -202,8 +202,8 @@ DareSolution Finalize(const ConstRef& A, const ConstRef& C, const ConstRef& Q, c
   // asked for; DGEEV and DSYEVR run only when it cannot decide (or gives no bound below 1 - margin).
   const double md = static_cast<double>(C.rows());
   const double e = 2 * (md + 2) * kUnitRoundoff * (A.norm() + sol.predictor_gain.norm() * C.norm());
-  const auto [stable, psd] = JudgeStabilizing(closed_loop, e, options.exact_eigenvalues, options.stability_margin,
-                                              kPsdTolerance, &sol);
+  const auto [stable, psd] =
+      JudgeStabilizing(closed_loop, e, options.exact_eigenvalues, options.stability_margin, kPsdTolerance, &sol);
   const bool residual_ok = sum.relative_residual <= kResidualAcceptance;
   if (sum.termination == Termination::kConverged) {
     if (!residual_ok) {

@@ -215,8 +215,8 @@ DareSolution SolveBySg02ad(const ConstRef& A, const ConstRef& C, const ConstRef&
     const double nd = static_cast<double>(p.n);
     e = 10.0 * (e * std::sqrt(nd) / (p.e_rcond * norm1) + 4.0 * nd * detail::kUnitRoundoff / p.e_rcond * F.norm());
   }
-  const auto [stable, psd] = detail::JudgeStabilizing(F, e, options.exact_eigenvalues, options.stability_margin,
-                                                      kPsdTolerance, &sol);
+  const auto [stable, psd] =
+      detail::JudgeStabilizing(F, e, options.exact_eigenvalues, options.stability_margin, kPsdTolerance, &sol);
   if (sum.ok() && (!stable || !psd)) {
     sum.termination = Termination::kNotStabilizing;
     if (!stable) {

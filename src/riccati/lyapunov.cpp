@@ -131,7 +131,8 @@ void SolveBySchur(const ConstRef& A, const ConstRef& Q, LyapunovSolution* sol) {
   if (!schur.ok()) {
     sol->spectral_radius = std::numeric_limits<double>::quiet_NaN();
     sum.termination = Termination::kFailed;
-    sum.message = "the QR algorithm failed to compute the Schur form of A (DGEES info " + std::to_string(schur.info) + ")";
+    sum.message =
+        "the QR algorithm failed to compute the Schur form of A (DGEES info " + std::to_string(schur.info) + ")";
     return;
   }
   sol->spectral_radius = schur.SpectralRadius();
@@ -142,8 +143,8 @@ void SolveBySchur(const ConstRef& A, const ConstRef& Q, LyapunovSolution* sol) {
   for (Index i = 0; i < n; ++i)
     for (Index j = i; j < n; ++j)
       min_gap = std::min(min_gap, std::abs(1.0 - schur.eigenvalues(i) * schur.eigenvalues(j)));
-  const bool pivots_ok = min_gap > 64 * std::numeric_limits<double>::epsilon() &&
-                         detail::SolveLyapunovBySchur(schur, Q, &sol->X);
+  const bool pivots_ok =
+      min_gap > 64 * std::numeric_limits<double>::epsilon() && detail::SolveLyapunovBySchur(schur, Q, &sol->X);
   if (!pivots_ok) {
     sum.termination = Termination::kSingular;
     sum.message =
@@ -205,9 +206,9 @@ LyapunovSolution SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& 
     sum.method = options.method == LyapunovMethod::kSmith ? "smith" : "schur";
     sum.message = "empty state (n = 0)";
   } else if (options.method != LyapunovMethod::kSchur &&
-             SolveSteinSmith(A, Q,
-                             options.method == LyapunovMethod::kAuto && n >= 1000 ? kAutoSmithStepsLarge : kSmithMaxSteps,
-                             &sol.X, &sum.relative_residual)) {
+             SolveSteinSmith(
+                 A, Q, options.method == LyapunovMethod::kAuto && n >= 1000 ? kAutoSmithStepsLarge : kSmithMaxSteps,
+                 &sol.X, &sum.relative_residual)) {
     sum.termination = Termination::kConverged;
     sum.method = "smith";
     sum.message = "squared Smith iteration";

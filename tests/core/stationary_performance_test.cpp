@@ -1,6 +1,7 @@
 // Tests of the stationary engine's block solve (src/core/stationary_performance.cpp). Oracles: the
 // dense joint equation Sigma = AA Sigma AA^T + N of docs/exact-performance.md (4), formed explicitly and
-// solved by the Kronecker system for small sizes and by SLICOT SG03AD at seeded random sizes; residuals; one StationaryTruth shared by several filters gives the Model overload's numbers.
+// solved by the Kronecker system for small sizes and by SLICOT SG03AD at seeded random sizes; residuals; one
+// StationaryTruth shared by several filters gives the Model overload's numbers.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -75,8 +76,8 @@ LinearFilterStep RandomFilter(TestRng& rng, Eigen::Index nz, Eigen::Index n, Eig
 
 TEST(StationaryBlocks, AgreesWithTheKroneckerSolveOfTheJointEquation) {
   TestRng rng(31);
-  for (const auto& [n, nz, m] : {std::tuple{1, 1, 1}, std::tuple{2, 3, 1}, std::tuple{4, 2, 2}, std::tuple{5, 5, 2},
-                                 std::tuple{6, 4, 3}}) {
+  for (const auto& [n, nz, m] :
+       {std::tuple{1, 1, 1}, std::tuple{2, 3, 1}, std::tuple{4, 2, 2}, std::tuple{5, 5, 2}, std::tuple{6, 4, 3}}) {
     const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
     const Model truth(s, VectorXd::Zero(n), rng.Spd(n));
     const LinearFilterStep f = RandomFilter(rng, nz, n, m, nz == n && n % 2 == 1);
@@ -91,7 +92,8 @@ TEST(StationaryBlocks, AgreesWithTheKroneckerSolveOfTheJointEquation) {
 }
 
 // Seeded random sizes (across the recursion's base size 32), against the dense joint equation solved by
-// SLICOT SG03AD (SolveGeneralizedDiscreteLyapunov with E = I); one StationaryTruth serves every filter and gives the Model overload's result.
+// SLICOT SG03AD (SolveGeneralizedDiscreteLyapunov with E = I); one StationaryTruth serves every filter and gives the
+// Model overload's result.
 TEST(StationaryBlocks, RandomSizesAgreeWithTheDenseJointSolve) {
   std::mt19937 sizes(77);
   std::uniform_int_distribution<int> size(10, 70);

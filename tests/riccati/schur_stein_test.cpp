@@ -111,8 +111,8 @@ TEST(SchurStein, ReciprocalPairIsReportedSingular) {
   // 0.5 and 2 in A and B: lambda_i(A) lambda_j(B) = 1.
   const MatrixXd A2 = MatrixXd::Identity(3, 3) * 0.5, B2 = MatrixXd::Identity(2, 2) * 2.0;
   MatrixXd Y;
-  EXPECT_FALSE(detail::SolveSteinBySchur(detail::ComputeRealSchur(A2), detail::ComputeRealSchur(B2),
-                                         MatrixXd::Ones(3, 2), &Y));
+  EXPECT_FALSE(
+      detail::SolveSteinBySchur(detail::ComputeRealSchur(A2), detail::ComputeRealSchur(B2), MatrixXd::Ones(3, 2), &Y));
 }
 
 }  // namespace

@@ -132,9 +132,9 @@ template <int C, int D>
 // All T steps of one chunk (the chunk's lanes already loaded).
 template <int C, int D>
 [[gnu::always_inline]] inline void ChunkRun(Lanes& L, Index i0, Index nb, const Eigen::Ref<const TimeSeries>& y,
-                                             Eigen::Ref<TimeSeries>& xo) {
-  for (Index t = 0; t < y.rows(); ++t) ChunkStep<C, D>(L, nb, y.data() + t * y.outerStride() + i0 * D,
-                                                        xo.data() + t * xo.outerStride() + i0 * C);
+                                            Eigen::Ref<TimeSeries>& xo) {
+  for (Index t = 0; t < y.rows(); ++t)
+    ChunkStep<C, D>(L, nb, y.data() + t * y.outerStride() + i0 * D, xo.data() + t * xo.outerStride() + i0 * C);
 }
 
 template <int C, int D>
@@ -144,8 +144,8 @@ void ChunkRunDefault(Lanes& L, Index i0, Index nb, const Eigen::Ref<const TimeSe
 #if KFX_MANY_X86
 template <int C, int D>
 __attribute__((target("avx2,fma"))) void ChunkRunAvx2(Lanes& L, Index i0, Index nb,
-                                                       const Eigen::Ref<const TimeSeries>& y,
-                                                       Eigen::Ref<TimeSeries>& xo) {
+                                                      const Eigen::Ref<const TimeSeries>& y,
+                                                      Eigen::Ref<TimeSeries>& xo) {
   ChunkRun<C, D>(L, i0, nb, y, xo);
 }
 #endif
@@ -182,8 +182,8 @@ void ToLane(const double* block, Index size, Index j, std::vector<double>* lanes
 }
 
 // Any c, d: one filter at a time with Eigen's dynamic matrices (the same formulas).
-void RunOneGeneric(const ManyFilterModel& m, Index i, const Eigen::Ref<const TimeSeries>& y,
-                   Eigen::Ref<TimeSeries>& xo, MatrixXd* P_last) {
+void RunOneGeneric(const ManyFilterModel& m, Index i, const Eigen::Ref<const TimeSeries>& y, Eigen::Ref<TimeSeries>& xo,
+                   MatrixXd* P_last) {
   const Index c = m.c(), d = m.d();
   const Eigen::Map<const MatrixXd> F(Block(m.F, i, c), c, c), H(Block(m.H, i, c), d, c), Q(Block(m.Q, i, c), c, c),
       R(Block(m.R, i, d), d, d);

@@ -23,8 +23,7 @@ namespace kfx::detail {
 using Eigen::Index;
 using Eigen::MatrixXd;
 
-FrozenBlockDiagonal::FrozenBlockDiagonal(const CoupledStep& s, const MatrixXd& P_filt, int group)
-    : group_(group) {
+FrozenBlockDiagonal::FrozenBlockDiagonal(const CoupledStep& s, const MatrixXd& P_filt, int group) : group_(group) {
   KFX_ASSERT(group >= 1);
   BlockDiagonalCovarianceStep st;
   BlockDiagonalCovarianceUpdate(s, P_filt, &st);  // the gain of the next step from the converged P
@@ -50,11 +49,11 @@ FrozenBlockDiagonal::FrozenBlockDiagonal(const CoupledStep& s, const MatrixXd& P
     V = HF.middleCols(i0 * c, nb * c);
     for (int m = 0; m + 1 < group; ++m) {
       for (Index i = 0; i < nb; ++i) {
-        Z.middleCols(i * d, d).noalias() =
-            gain_.Et.middleCols((i0 + i) * c, c) * V.middleCols(i * c, c).transpose();
+        Z.middleCols(i * d, d).noalias() = gain_.Et.middleCols((i0 + i) * c, c) * V.middleCols(i * c, c).transpose();
       }
       M_[static_cast<size_t>(m)].noalias() += gain_.Yt.middleCols(i0 * d, nb * d) * Z.leftCols(nb * d).transpose();
-      for (Index i = 0; i < nb; ++i) V.middleCols(i * c, c) = (V.middleCols(i * c, c) * Fc_.middleCols((i0 + i) * c, c)).eval();
+      for (Index i = 0; i < nb; ++i)
+        V.middleCols(i * c, c) = (V.middleCols(i * c, c) * Fc_.middleCols((i0 + i) * c, c)).eval();
     }
   }
 }

@@ -62,7 +62,8 @@ FilterRun Reference(const Case& k, Index i) {
   const ManyFilterModel& m = k.model;
   const Index c = m.c(), d = m.d();
   const Model model(MakeStep(BlockOf(m.F, i, c), BlockOf(m.H, i, c), BlockOf(m.Q, i, c), BlockOf(m.R, i, d)),
-                    m.x0.cols() == 1 ? Eigen::VectorXd(m.x0.col(0)) : Eigen::VectorXd(m.x0.col(i)), BlockOf(m.P0, i, c));
+                    m.x0.cols() == 1 ? Eigen::VectorXd(m.x0.col(0)) : Eigen::VectorXd(m.x0.col(i)),
+                    BlockOf(m.P0, i, c));
   FilterRunOptions options;
   options.store_covariances = true;
   return RunFilter(model, k.y.middleCols(i * d, d), options);

@@ -64,7 +64,7 @@ TEST(SteadyStateBlockDiagonal, EqualsTheRunningFilterAfterConvergence) {
     EXPECT_EQ(running.steady_state_steps, 0);
     ASSERT_GT(steady.steady_state_steps, 0);
     ASSERT_LT(steady.steady_state_steps, T);
-    const int frozen_at = T - steady.steady_state_steps;  // the last full step
+    const int frozen_at = T - steady.steady_state_steps;                                     // the last full step
     EXPECT_EQ(steady.x_filt.topRows(frozen_at + 1), running.x_filt.topRows(frozen_at + 1));  // same code until then
     const Index after = T - frozen_at;
     EXPECT_LE(MaxRelative(steady.x_filt.bottomRows(after), running.x_filt.bottomRows(after)), 1e-10);
@@ -79,7 +79,8 @@ TEST(SteadyStateBlockDiagonal, IsTheFrozenGainAppliedAsADenseMatrix) {
   const CoupledSystem sys = RandomSystem(rng, n, c, d, r, 0.6);
   const int T = 200;
   const TimeSeries y = SimulateCoupled(sys, {T, 9}).y;
-  const CoupledRun steady = RunWithTolerance(sys, y, 1e-9);  // freezes early: the gain then differs from the running one
+  const CoupledRun steady =
+      RunWithTolerance(sys, y, 1e-9);  // freezes early: the gain then differs from the running one
   const int frozen_at = T - steady.steady_state_steps;
   ASSERT_GT(steady.steady_state_steps, 20);
   // P_{k|k} at the freeze from the running filter, and the dense gain of the next step.
