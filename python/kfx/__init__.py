@@ -27,7 +27,7 @@ from ._core import (  # noqa: F401  (the core, listed so that editors and type c
     LinearFilterStep, LyapunovSolution, Model, ModelStep, MonteCarloResult, NumericalError, PerformanceResult,
     SmootherRun, StationaryPerformance, SteinSolution, Summary, UpdateResult, __version__, compare,
     constant_gain_as_linear_filter, discretize_process_noise, discretize_zoh, exact_performance,
-    exact_stationary_performance, filter_dare_residual, kalman_as_linear_filter, kalman_schedule,
+    exact_stationary_performance, filter_dare_residual, filter_many, kalman_as_linear_filter, kalman_schedule,
     matrix_exponential, monte_carlo_performance, paper_ids, parse_method, predict, reproduce, rts_smooth,
     run_filter, simulate, solve_discrete_lyapunov, solve_discrete_sylvester, solve_filter_dare,
     solve_generalized_discrete_lyapunov, spectral_radius, update,

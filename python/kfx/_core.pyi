@@ -165,11 +165,12 @@ class FilterHealth:
     steps: int
 
 class FilterRun:
-    """A whole-sequence filter run (kfx.run_filter)."""
-    P_filt: numpy.ndarray
+    """A whole-sequence filter run (kfx.run_filter). Every array is a read-only view, the same object on every access."""
+    P_filt: object
     P_filt_diag: numpy.ndarray
-    P_pred: numpy.ndarray
+    P_pred: object
     P_pred_diag: numpy.ndarray
+    covariances_stored: bool
     health: FilterHealth
     health_warning: str
     innovations: numpy.ndarray
@@ -214,9 +215,9 @@ class InvariantSubspaceBasis:
 
 class KalmanSchedule:
     """The offline part: gains and covariances, k = 1..T."""
-    P_filt: numpy.ndarray
-    P_pred: numpy.ndarray
-    filter_gain: numpy.ndarray
+    P_filt: object
+    P_pred: object
+    filter_gain: object
 
 class KroneckerStructured:
     """I_n (x) X + 1 1^T (x) Y"""
@@ -339,7 +340,7 @@ class SamplingBounds:
 
 class SmootherRun:
     """C++ (include/kfx/kalman_filter.hpp, SmootherRun):"""
-    P: numpy.ndarray
+    P: object
     P_diag: numpy.ndarray
     x: numpy.ndarray
 
@@ -453,7 +454,7 @@ def approximate_subspace_filter_as_linear_filter(approx: ApproximateSubspaceFilt
 
 def block_diagonal_to_dense(blocks: numpy.ndarray, block_cols: int) -> numpy.ndarray: """The dense (n a) x (n b) block-diagonal matrix of packed blocks (a x (n b))."""
 
-def compare(model: object, methods: List[str], steps: int = 100, stationary: bool = False, weight: Optional[numpy.ndarray] = None, monte_carlo: int = 0, seed: int = 1) -> list: """The rows of `kfx compare` (docs/cli.md): model is a kfx.Model or a model-file path (a coupled model file for blockdiag/banded, a continuous-time model file for sampled); methods are specifications. Returns one dict per method (pandas.DataFrame(rows) takes the list), each with the comparison's fields (steps, stationary, kalman_final_mse, kalman_stationary_mse, kalman_bucy_mse, kalman_bucy_stationary_mse) and mse_curve; 'headline' is the stationary MSE with stationary=True, else the MSE at T. kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures."""
+def compare(model: object, methods: List[str], steps: int = 100, stationary: bool = False, weight: Optional[numpy.ndarray] = None, monte_carlo: int = 0, seed: int = 1, progress: object = None) -> list: """The rows of `kfx compare` (docs/cli.md): model is a kfx.Model or a model-file path (a coupled model file for blockdiag/banded, a continuous-time model file for sampled); methods are specifications. Returns one dict per method (pandas.DataFrame(rows) takes the list), each with the comparison's fields (steps, stationary, kalman_final_mse, kalman_stationary_mse, kalman_bucy_mse, kalman_bucy_stationary_mse) and mse_curve; 'headline' is the stationary MSE with stationary=True, else the MSE at T. kfx.plots.compare_pareto(rows) and kfx.plots.compare_error_vs_time draw the figures. progress: None or progress(methods done, methods), as every long call takes it (docs/python.md); Ctrl-C stops the comparison between methods' steps with KeyboardInterrupt."""
 
 def constant_gain_as_linear_filter(design: ModelStep, filter_gain: numpy.ndarray, z0: numpy.ndarray) -> LinearFilter: """Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain)."""
 
@@ -471,11 +472,13 @@ def discretize_process_noise(A: numpy.ndarray, Qc: numpy.ndarray, dt: float) -> 
 
 def discretize_zoh(A: numpy.ndarray, B: numpy.ndarray, dt: float) -> tuple: """Zero-order hold: (Ad, Bd)."""
 
-def exact_performance(truth: Model, filter: LinearFilter, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = True) -> PerformanceResult: """The exact mean-square error of any linear filter on any true model (the one engine every kfx method reports through), e_k = x_k - O_k z_k."""
+def exact_performance(truth: Model, filter: LinearFilter, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = True, progress: object = None) -> PerformanceResult: """The exact mean-square error of any linear filter on any true model (the one engine every kfx method reports through), e_k = x_k - O_k z_k. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def exact_stationary_performance(truth: Model, filter: LinearFilter, weight: Optional[numpy.ndarray] = None) -> StationaryPerformance: """Stationary error of a time-invariant filter on a time-invariant model."""
 
 def filter_dare_residual(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, P: numpy.ndarray, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None) -> float: """Relative residual of a candidate P of the filter DARE (with S and E: |A P A^T - E P E^T + Q - K_p W K_p^T|_F / |E P E^T|_F)."""
+
+def filter_many(F: numpy.ndarray, H: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, x0: numpy.ndarray, P0: numpy.ndarray, zs: numpy.ndarray) -> tuple: """n independent Kalman filters (004's subsystems with U = 0; docs/python.md). F (c, c) or (n, c, c), H (d, c) or (n, d, c), Q (c, c) or (n, c, c), R (d, d) or (n, d, d), x0 (c,) or (n, c), P0 (c, c) or (n, c, c): one for all filters or one per filter; zs (T, n) (d = 1) or (T, n, d), NaN = missing. Returns (xs, P): xs (T, n, c) the filtered means x_k|k, P (n, c, c) the last P_T|T."""
 
 def frobenius_distance(a: KroneckerStructured, b: KroneckerStructured) -> float: """||A - B||_F of two structured matrices with the same n: sqrt(n |dX + dY|^2 + n (n - 1) |dY|^2)."""
 
@@ -485,7 +488,7 @@ def kalman_bucy_covariance(model: ContinuousModel, T: float) -> numpy.ndarray: "
 
 def kalman_costs(model: Model, L: WeightSchedule, steps: int) -> tuple: """Full-order Kalman costs (predictor, filter): tr(L_k P_{k|k-1} L_k^T), tr(L_k P_{k|k} L_k^T)."""
 
-def kalman_schedule(model: Model, steps: int = -1) -> KalmanSchedule: """Raises kfx.Error on invalid options or steps beyond the horizon; kfx.NumericalError (a recursion)"""
+def kalman_schedule(model: Model, steps: int = -1, progress: object = None) -> KalmanSchedule: """The Kalman filter's gain and covariance schedule over steps (default: the model's horizon). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def least_damped_subspace(A: numpy.ndarray, n_r: int) -> InvariantSubspaceBasis: """The n_r least damped modes of A (ordered real Schur form), canonical basis T = [V_r, V_s]."""
 
@@ -499,7 +502,7 @@ def mismatched_covariance_sequence(design: Model, truth: Model, steps: int) -> d
 
 def modeling_errors_between(design: ModelStep, truth: ModelStep) -> ModelingErrors: """design - truth, for two steps of the same dimensions and the same noise input G (both without"""
 
-def monte_carlo_performance(truth: Model, filter: LinearFilter, runs: int = 1000, seed: int = 1, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = False) -> MonteCarloResult: """Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`)."""
+def monte_carlo_performance(truth: Model, filter: LinearFilter, runs: int = 1000, seed: int = 1, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = False, progress: object = None) -> MonteCarloResult: """Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`); progress counts runs. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def paper_ids() -> List[str]: """The ids accepted by reproduce(), in paper order."""
 
@@ -519,13 +522,13 @@ def reduced_order_two_step(model: Model, L: WeightSchedule, steps: int = -1, ran
 
 def reduced_order_two_step_as_linear_filter(schedule: ReducedOrderTwoStep, L: WeightSchedule, output: str = 'data_assimilation') -> LinearFilter: """The two-step filter as a LinearFilter with state z_k = (xi^da_k, xi^f_k): step 1 is"""
 
-def reproduce(paper: str, quick: bool = False, out_dir: str = '') -> list: """A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data for figures goes (kfx.plots.render(out_dir) draws them)."""
+def reproduce(paper: str, quick: bool = False, out_dir: str = '', progress: object = None) -> list: """A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data for figures goes (kfx.plots.render(out_dir) draws them). progress: None or progress(done, total) for each paper in turn, at most every 0.05 s; Ctrl-C stops the run with KeyboardInterrupt."""
 
-def rts_smooth(model: Model, run: FilterRun) -> SmootherRun: """Rauch-Tung-Striebel smoother of a run_filter result (needs store_covariances=True)."""
+def rts_smooth(model: Model, run: FilterRun, progress: object = None) -> SmootherRun: """Rauch-Tung-Striebel smoother of a run_filter result (needs store_covariances='full'; raises kfx.Error otherwise). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
-def run_coupled_filter(system: CoupledSystem, kind: str, y: numpy.ndarray) -> CoupledRun: """Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), 'block-diagonal-naive', 'banded', 'full'."""
+def run_coupled_filter(system: CoupledSystem, kind: str, y: numpy.ndarray, progress: object = None) -> CoupledRun: """Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), 'block-diagonal-naive', 'banded', 'full'. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
-def run_filter(model: Model, y: numpy.ndarray, store_covariances: bool = True, update_form: str = 'joseph', form: str = 'conventional', monitor_health: bool = True) -> FilterRun: """Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting from the prior (m0, P0) at k = 0. form: 'conventional', 'sqrt', 'ud' or 'information'. With monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use when the covariances went wrong."""
+def run_filter(model: Model, y: numpy.ndarray, store_covariances: object = 'diag', update_form: str = 'joseph', form: str = 'conventional', monitor_health: bool = True, progress: object = None) -> FilterRun: """Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting from the prior (m0, P0) at k = 0. store_covariances: 'diag' (default: the diagonals P_filt_diag, P_pred_diag, (T+1) n numbers) or 'full' (also every P_{k|k}, P_{k|k-1} as P_filt, P_pred: 2 (T+1) n^2 numbers; rts_smooth needs them). form: 'conventional', 'sqrt', 'ud' or 'information'. With monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use when the covariances went wrong. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def run_kalman_bucy(model: ContinuousModel, T: float, dy: numpy.ndarray, substeps: int = 2) -> tuple: """Returns (z_hat(T), P_c(T))."""
 
@@ -539,7 +542,7 @@ def sampled_model_at(model: ContinuousModel, times: List[float]) -> Model: """Th
 
 def search_error_box(design: ModelStep, ranges: ErrorRanges, refine: bool = True) -> dict: """002 Sec. 6: the largest true tr P of the design's filter and the smallest optimal tr P_F over the box."""
 
-def simulate(model: Model, steps: int = -1, seed: int = 1) -> tuple: """Draws x_0 ~ N(m0, P0), then x_k, y_k for k = 1..steps. Returns (x (T+1, n), y (T, m)); the same seed gives the same numbers on every platform (and as `kfx simulate`)."""
+def simulate(model: Model, steps: int = -1, seed: int = 1, progress: object = None) -> tuple: """Draws x_0 ~ N(m0, P0), then x_k, y_k for k = 1..steps. Returns (x (T+1, n), y (T, m)); the same seed gives the same numbers on every platform (and as `kfx simulate`). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def simulate_continuous(model: ContinuousModel, T: float, N: int, seed: int = 1) -> tuple: """Exact simulation on t_i = i T / N: returns (t (N+1,), z (N+1, p), dy (N, r))."""
 
@@ -553,7 +556,7 @@ def solve_discrete_sylvester(A: numpy.ndarray, B: numpy.ndarray, C: numpy.ndarra
 
 def solve_filter_care(model: ContinuousModel) -> CareSolution: """CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}."""
 
-def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead. With a cross term S (n, m) and/or a descriptor E (n, n): E P E^T = A P A^T + Q - (A P C^T + S) W^{-1} (A P C^T + S)^T, W = C P C^T + R, the dual of scipy's solve_discrete_are(A.T, C.T, Q, R, e=E.T, s=S) and python-control's dare(A.T, C.T, Q, R, S, E.T); predictor_gain K_p = (A P C^T + S) W^{-1} (python-control's G is K_p.T), filter_gain K_f = P C^T W^{-1}. method 'doubling': E^{-1} and the decorrelation A - S R^{-1} C, Q - S R^{-1} S^T, then the standard solver; 'schur': SLICOT SG02AD; 'auto': doubling, SG02AD if E is ill-conditioned or doubling fails. [[Q, S], [S^T, R]] must be PSD, E nonsingular."""
+def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None, progress: object = None) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead. With a cross term S (n, m) and/or a descriptor E (n, n): E P E^T = A P A^T + Q - (A P C^T + S) W^{-1} (A P C^T + S)^T, W = C P C^T + R, the dual of scipy's solve_discrete_are(A.T, C.T, Q, R, e=E.T, s=S) and python-control's dare(A.T, C.T, Q, R, S, E.T); predictor_gain K_p = (A P C^T + S) W^{-1} (python-control's G is K_p.T), filter_gain K_f = P C^T W^{-1}. method 'doubling': E^{-1} and the decorrelation A - S R^{-1} C, Q - S R^{-1} S^T, then the standard solver; 'schur': SLICOT SG02AD; 'auto': doubling, SG02AD if E is ill-conditioned or doubling fails. [[Q, S], [S^T, R]] must be PSD, E nonsingular. progress: None or progress(step, max_iterations) over the doubling steps (not the Schur method), at most every 0.05 s; the GIL is released, and Ctrl-C stops the doubling with KeyboardInterrupt."""
 
 def solve_generalized_discrete_lyapunov(A: numpy.ndarray, E: numpy.ndarray, Q: numpy.ndarray) -> LyapunovSolution: """A X A^T - E X E^T + Q = 0 (python-control dlyap(A, Q, None, E)) by SLICOT SG03AD. Returns a LyapunovSolution; a reciprocal eigenvalue pair of the pencil (A, E) is .summary.termination 'singular'."""
 
@@ -563,11 +566,11 @@ def spring_mass_chain(N: int, mass: float = 1.0, k: float = 1.0, c: float = 0.0,
 
 def stationary_mismatched_covariance(design: ModelStep, truth: ModelStep, filter_gain: Optional[numpy.ndarray] = None) -> StationaryMismatch: """002 (15)-(17): the stationary true error of the filter designed on `design`, run on `truth`."""
 
-def study_convergence(model: ContinuousModel, T: float, n_values: List[int] = ..., rate_min_n: int = 16) -> ConvergenceStudy: """003: err(n) = tr P_{T,n} - tr P_c(T) for each n, the bounds of Theorems 1-4 and the fitted rate."""
+def study_convergence(model: ContinuousModel, T: float, n_values: List[int] = ..., rate_min_n: int = 16, progress: object = None) -> ConvergenceStudy: """003: err(n) = tr P_{T,n} - tr P_c(T) for each n, the bounds of Theorems 1-4 and the fitted rate; progress counts the values of n. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def subspace_filter_as_linear_filter(truth: ModelStep, subspace: Subspace, schedule: SubspaceFilterSchedule, m0: numpy.ndarray) -> LinearFilter: """The time-varying subspace filter (z_0 = Pi m0) for exact_performance."""
 
-def subspace_filter_schedule(truth: ModelStep, S0: numpy.ndarray, subspace: Subspace, steps: int = -1, max_steps: int = 20000, tolerance: float = 1e-11, rde_check: bool = False, stationary_prior: bool = False) -> SubspaceFilterSchedule: """000 Algorithm 2.3 (offline part): gains K_k and output maps Q_k until convergence (or `steps`)."""
+def subspace_filter_schedule(truth: ModelStep, S0: numpy.ndarray, subspace: Subspace, steps: int = -1, max_steps: int = 20000, tolerance: float = 1e-11, rde_check: bool = False, stationary_prior: bool = False, progress: object = None) -> SubspaceFilterSchedule: """000 Algorithm 2.3 (offline part): gains K_k and output maps Q_k until convergence (or `steps`). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def subspace_from_basis(basis: numpy.ndarray, gram: numpy.ndarray) -> Subspace: """The span of basis (N x n) with W-orthonormal coordinates."""
 

@@ -26,7 +26,8 @@ def test_every_compiled_name_has_one_place():
             homes[name] = family
     top = set(kfx.__all__) - set(FAMILIES) - {"plots", "__version__"}
     assert not (top & set(homes)), top & set(homes)
-    assert top | set(homes) == public(core)
+    # KalmanFilter: the FilterPy drop-in, kfx/_filterpy.py's subclass of the compiled _KalmanFilter.
+    assert top | set(homes) == public(core) | {"KalmanFilter"}
     # A binding added since the lists were made is reachable but not placed: give it a home.
     assert kfx._UNPLACED == [], f"put these into kfx/__init__.py or a family module: {kfx._UNPLACED}"
 
