@@ -66,6 +66,8 @@ SmootherRun SmoothStored(const Model& model, const PyFilterRun& stored, const py
   });
 }
 
+void BindSmootherAndSchedule(py::module_& m);
+
 }  // namespace
 
 void BindKalmanFilter(py::module_& m) {
@@ -179,6 +181,13 @@ void BindKalmanFilter(py::module_& m) {
                    "when the covariances went wrong.") +
        kProgressDoc)
           .c_str());
+  BindSmootherAndSchedule(m);
+}
+
+namespace {
+
+// The smoother, the offline schedule and the filters as LinearFilters for the engine.
+void BindSmootherAndSchedule(py::module_& m) {
   py::class_<PySmootherRun>(m, "SmootherRun")
       .def_readonly("x", &SmootherRun::x, "(T+1, n): row k = x_{k|T}")
       .def_readonly("P_diag", &SmootherRun::P_diag, "(T+1, n): diagonals of P_{k|T}")
@@ -229,5 +238,7 @@ void BindKalmanFilter(py::module_& m) {
   m.def("constant_gain_as_linear_filter", &ConstantGainAsLinearFilter, py::arg("design"), py::arg("filter_gain"),
         py::arg("z0"), "Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain).");
 }
+
+}  // namespace
 
 }  // namespace kfx::python
