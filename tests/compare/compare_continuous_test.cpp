@@ -225,10 +225,11 @@ TEST_F(MeshCompareTest, MeshSubspaceIsTheBuildersCoarseSpace) {
   for (const CompareRow& r : c.rows) EXPECT_GE(r.final_mse, c.kalman_final * (1 - 1e-10)) << r.spec;
   MethodOptions mo;
   mo.steps = 30;
-  for (const auto& [text, what] : std::vector<std::pair<std::string, std::string>>{
+  for (const auto& [spec, what] : std::vector<std::pair<std::string, std::string>>{
            {"subspace:mesh=4", "the meshes are not nested"},
            {"subspace61:mesh=15", "the meshes are not nested"},
            {"subspace:mesh=3,gram=" + Path("E.npy"), "gram: expected a 30x30 matrix"}}) {
+    const std::string text = spec;  // C++17: a lambda cannot capture a structured binding (clang rejects it)
     EXPECT_TRUE(ThrowsErrorStartingWith([&] { ResolveMethod(ParseMethodSpec(text), truth, mo); },
                                         "method '" + text + "': ", {what}))
         << text;
