@@ -220,7 +220,8 @@ TEST_F(CompareTest, EveryBadSpecAgainstTheModelIsOneErrorNamingIt) {
       {"design:" + Path("missing.json"), "model: "},
       {"coarse:model=" + kChain + ",prolongation=" + Path("E3.npy"), "prolongation: expected a 8x8 matrix"},
   };
-  for (const auto& [text, what] : bad) {
+  for (const auto& [spec, what] : bad) {
+    const std::string text = spec;  // C++17: a lambda cannot capture a structured binding (clang rejects it)
     EXPECT_TRUE(ThrowsErrorStartingWith([&] { ResolveMethod(ParseMethodSpec(text), *truth_, mo); },
                                         "method '" + text + "': ", {what}))
         << text;

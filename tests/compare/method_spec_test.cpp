@@ -70,7 +70,8 @@ TEST(MethodSpec, EveryBadSpecIsOneErrorNamingIt) {
       {"sampled:dt=1e999", "dt: expected a finite number > 0"},
       {"subspace:basis=E.npy,gain=steady", "gain: expected one of 'schedule', 'converged'"},
   };
-  for (const auto& [text, what] : bad) {
+  for (const auto& [spec, what] : bad) {
+    const std::string text = spec;  // C++17: a lambda cannot capture a structured binding (clang rejects it)
     EXPECT_TRUE(ThrowsErrorStartingWith([&] { ParseMethodSpec(text); }, "method '" + text + "': ", {what})) << text;
   }
 }

@@ -261,7 +261,8 @@ TEST_F(NpyTest, RejectsUnsupportedDtypesNamingFileAndDtype) {
       {"object.npy", "'|O' (object array)"},
       {"structured.npy", "structured array"},
   };
-  for (const auto& [file, text] : cases) {
+  for (const auto& [name, text] : cases) {
+    const std::string file = name;  // C++17: a lambda cannot capture a structured binding (clang rejects it)
     EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ReadNpy(kData + file); }, kData + file, {text})) << file;
   }
   const std::string data = DoubleBytes({1});
