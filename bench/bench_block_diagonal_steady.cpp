@@ -18,6 +18,7 @@
 #include <random>
 #include <vector>
 
+#include "coupled_bench_system.hpp"
 #include "kfx/block_diagonal.hpp"
 #include "methods/block_diagonal/block_diagonal_shared.hpp"
 
@@ -27,28 +28,14 @@ using Eigen::Index;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-constexpr Index kC = 2, kD = 1, kR = 20;
+using kfx::bench::kC;
+using kfx::bench::kD;
+using kfx::bench::kR;
 constexpr int kGroup = kfx::CoupledFilterOptions::kSteadyStateGroup;
 
 kfx::CoupledStep MakeSystem(Index n) {
   std::mt19937_64 gen(1);
-  std::normal_distribution<double> N01;
-  kfx::CoupledStep s;
-  s.F.resize(kC, n * kC);
-  s.H.resize(kD, n * kC);
-  s.V.resize(kC, n * kC);
-  s.R.resize(kD, n * kD);
-  s.G.resize(n * kC, kR);
-  for (Index i = 0; i < n; ++i) {
-    s.F.middleCols(i * kC, kC) << 0.95, 0.1 * N01(gen), 0.0, 0.95;
-    s.H.middleCols(i * kC, kC) << 1.0 + 0.1 * N01(gen), 0.5 * N01(gen);
-    s.V.middleCols(i * kC, kC) = 1e-2 * MatrixXd::Identity(kC, kC);
-    s.R.middleCols(i * kD, kD).setConstant(1.0);
-  }
-  for (Index j = 0; j < kR; ++j)
-    for (Index i = 0; i < n * kC; ++i) s.G(i, j) = N01(gen) / std::sqrt(static_cast<double>(kR));
-  s.U = MatrixXd::Identity(kR, kR);
-  return s;
+  return kfx::bench::MakeCoupledBenchSystem(n, gen);
 }
 
 kfx::TimeSeries Measurements(Index rows, Index n) {
