@@ -1,6 +1,7 @@
 // kfx._core: the Kalman filter as functions: predict/update on an Estimate, whole-sequence runs, the
 // RTS smoother, the offline schedule and the Kalman filter as a LinearFilter (include/kfx/kalman_filter.hpp).
 // The FilterPy-style class kfx.KalmanFilter is in bind_filterpy_kalman_filter.cpp.
+#include <optional>
 #include <string>
 
 #include "bindings.hpp"
@@ -88,7 +89,7 @@ void BindKalmanFilter(py::module_& m) {
   m.def(
       "run_filter",
       [](const Model& model, const TimeSeries& y, bool store_covariances, const std::string& form,
-         const std::string& filter_form, bool monitor_health) {
+         const std::string& filter_form, bool monitor_health, std::optional<TimeSeries> input) {
         FilterRunOptions o;
         o.store_covariances = store_covariances;
         o.filter.update_form = ParseUpdateForm(form);
@@ -96,7 +97,7 @@ void BindKalmanFilter(py::module_& m) {
         // The cheap health checks by default (docs/robustness.md, class 8), with a RuntimeWarning.
         o.monitor_health = monitor_health;
         o.monitor_eigenvalues = false;
-        FilterRun run = RunFilter(model, y, o);
+        FilterRun run = RunFilter(model, y, input ? *input : TimeSeries(0, 0), o);
         if (!run.health_warning.empty() &&
             PyErr_WarnEx(PyExc_RuntimeWarning, ("kfx.run_filter: " + run.health_warning).c_str(), 1) != 0) {
           throw py::error_already_set();
@@ -104,9 +105,10 @@ void BindKalmanFilter(py::module_& m) {
         return run;
       },
       py::arg("model"), py::arg("y"), py::arg("store_covariances") = true, py::arg("update_form") = "joseph",
-      py::arg("form") = "conventional", py::arg("monitor_health") = true,
+      py::arg("form") = "conventional", py::arg("monitor_health") = true, py::arg("input") = py::none(),
       "Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting "
-      "from the prior (m0, P0) at k = 0. form: 'conventional', 'sqrt', 'ud' or 'information'. With "
+      "from the prior (m0, P0) at k = 0. input: the known input g (T, q), row k-1 = g_k, for a model with G, D "
+      "(a model with S is filtered by the correlated update). form: 'conventional', 'sqrt', 'ud' or 'information'. With "
       "monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's "
       ".health, and a RuntimeWarning naming the form to use when the covariances went wrong.");
   py::class_<SmootherRun>(m, "SmootherRun")

@@ -23,6 +23,12 @@ void CheckCompatible(const Model& truth, const LinearFilter& filter) {
     throw Error("filter: expected an output map to the model's " + std::to_string(truth.state_dim()) + " states, got " +
                 std::to_string(filter.output_dim()) + " outputs");
   }
+  // A known input moves the means of x and z by terms the LinearFilter form does not carry (issue 22: the
+  // engine takes the cross-covariance S, not yet G and D). Refused rather than silently left out.
+  if (truth.input_dim() > 0) {
+    throw Error("truth: the exact-performance engine does not take a known input (fields G, D) yet; evaluate the "
+                "model without G and D (a filter that models the input exactly has the same error)");
+  }
 }
 
 void CheckWeight(const Eigen::MatrixXd& weight, Eigen::Index n, const std::string& name) {
@@ -163,9 +169,11 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
     Sxx = s->Q;
     Sxx.noalias() += tmp * s->A.transpose();  // E[x' x'^T]
     Symmetrize(Sxx);
-    Sxy.noalias() = Sxx * s->C.transpose();  // E[x' y'^T]
+    Sxy.noalias() = Sxx * s->C.transpose();  // E[x' y'^T] (+ S = E[w v^T])
+    if (s->has_cross_covariance()) Sxy += s->S;
     Syy = s->R;
-    Syy.noalias() += s->C * Sxy;    // E[y' y'^T]
+    Syy.noalias() += s->C * Sxy;  // E[y' y'^T] = R + C Sxx C^T (+ C S + S^T C^T)
+    if (s->has_cross_covariance()) Syy.noalias() += s->S.transpose() * s->C.transpose();
     CASxz.noalias() = s->C * ASxz;  // E[y' z^T]
     // Szz' = K Syy K^T + K E[y'z^T] Phi^T + Phi E[z y'^T] K^T + Phi Szz Phi^T
     Eigen::MatrixXd KCASxzPhit = f->K * CASxz * f->Phi.transpose();
@@ -213,7 +221,8 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
   lyapunov.method = LyapunovMethod::kSchur;
   LyapunovSolution sol;
   if (rho_a < 1.0 && rho_phi < 1.0) {
-    // Joint system AA = [[A, 0], [K C A, Phi]], noise BB diag(Q, R) BB^T with BB = [[I, 0], [K C, K]].
+    // Joint system AA = [[A, 0], [K C A, Phi]], noise BB J BB^T with BB = [[I, 0], [K C, K]] and the joint
+    // noise covariance J = [[Q, S], [S^T, R]] (S = 0 when the model has none).
     Eigen::MatrixXd AA = Eigen::MatrixXd::Zero(n + nz, n + nz);
     AA.topLeftCorner(n, n) = s->A;
     AA.bottomLeftCorner(nz, n) = f->K * s->C * s->A;
@@ -224,6 +233,13 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
     N.topRightCorner(n, nz) = s->Q * KC.transpose();
     N.bottomLeftCorner(nz, n) = KC * s->Q;
     N.bottomRightCorner(nz, nz) = KC * s->Q * KC.transpose() + f->K * s->R * f->K.transpose();
+    if (s->has_cross_covariance()) {
+      const Eigen::MatrixXd SKt = s->S * f->K.transpose();  // E[w (K v)^T]
+      const Eigen::MatrixXd KCSKt = KC * SKt;
+      N.topRightCorner(n, nz) += SKt;
+      N.bottomLeftCorner(nz, n) += SKt.transpose();
+      N.bottomRightCorner(nz, nz) += KCSKt + KCSKt.transpose();
+    }
     Symmetrize(N);
     sol = SolveDiscreteLyapunov(AA, N, lyapunov);
     if (sol.summary.ok()) {
@@ -243,7 +259,13 @@ StationaryPerformance ExactStationaryPerformance(const Model& truth, const Linea
       const double scale = std::max(1.0, F.cwiseAbs().maxCoeff());
       consistent = (F - f->Phi).cwiseAbs().maxCoeff() <= 1e-10 * scale;
       if (consistent && rho_phi < 1.0) {
+        // e' = (I - K C)(A e + w) - K v: the cross term -(I - K C) S K^T and its transpose.
         Eigen::MatrixXd N = IKC * s->Q * IKC.transpose() + f->K * s->R * f->K.transpose();
+        if (s->has_cross_covariance()) {
+          const Eigen::MatrixXd cross = IKC * s->S * f->K.transpose();
+          N -= cross;
+          N -= cross.transpose();
+        }
         Symmetrize(N);
         sol = SolveDiscreteLyapunov(F, N, lyapunov);
         if (sol.summary.ok()) {
