@@ -108,12 +108,13 @@ Model::Model(std::vector<ModelStep> steps, Eigen::VectorXd m0, Eigen::MatrixXd P
   m_ = steps[0].C.rows();
   RequireDimensions(n_, m_, "step 1: A", "step 1: C");
   horizon_ = static_cast<int>(steps.size());
+  const Eigen::Index q = steps[0].input_dim();
   steps_.reserve(steps.size());
   for (size_t i = 0; i < steps.size(); ++i) {
     ValidateStep(steps[i], n_, m_, "step " + std::to_string(i + 1) + ": ");
-    if (steps[i].input_dim() != steps[0].input_dim()) {
+    if (steps[i].input_dim() != q) {
       throw Error("step " + std::to_string(i + 1) + ": " + (steps[i].G.size() > 0 ? "G" : "D") +
-                  ": expected the known input length q = " + std::to_string(steps[0].input_dim()) +
+                  ": expected the known input length q = " + std::to_string(q) +
                   " of step 1, got q = " + std::to_string(steps[i].input_dim()));
     }
     steps_.push_back(std::make_shared<const ModelStep>(std::move(steps[i])));
