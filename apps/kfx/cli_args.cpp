@@ -113,6 +113,8 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
   AddIntegerOption(c_sim, "--seed", sim.seed, 0, kMaxU64, "Random seed");
   c_sim->add_option("-o,--out", sim.out, "Output directory (x.npy: (T+1, n), y.npy: (T, m))")->required();
   c_sim->add_flag("--csv", sim.csv, "Write CSV instead of .npy");
+  c_sim->add_option("--input", sim.input,
+                    "Known input g (T, q) as .npy or .csv, row k-1 = g_k, for a model with fields G, D");
 
   auto add_filter = [&](const char* name, const char* help, FilterArgs& a) {
     auto* c = app.add_subcommand(name, help);
@@ -120,6 +122,8 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
     c->add_option("--data", a.data, "Measurements (T, m) as .npy or .csv; NaN = missing")->required();
     c->add_option("-o,--out", a.out, "Output directory")->required();
     c->add_flag("--csv", a.csv, "Write CSV instead of .npy");
+    c->add_option("--input", a.input,
+                  "Known input g (T, q) as .npy or .csv, row k-1 = g_k, for a model with fields G, D");
     c->add_option("--form", a.form,
                   "Covariance form: joseph (default), standard, sqrt (square root), ud (Bierman-Thornton), "
                   "information (docs/robustness.md)")

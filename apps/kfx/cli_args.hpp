@@ -12,10 +12,12 @@ struct SimulateArgs {
   int steps = 100;
   std::uint64_t seed = 1;
   bool csv = false;
+  std::string input;  ///< known input g (T, q) as .npy or .csv; empty: none (issue 22)
 };
 
 struct FilterArgs {
   std::string model, data, out;
+  std::string input;  ///< known input g (T, q) as .npy or .csv; empty: none (issue 22)
   bool csv = false;
   std::string form = "joseph";  ///< one of FilterFormChoices()
   bool health = false;          ///< full health checks: also every P_{k|k}'s eigenvalues

@@ -30,7 +30,8 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
   opt.monitor_eigenvalues = a.health;
   opt.filter = ParseFilterForm(a.form);
   opt.progress = progress.callback();
-  const FilterRun run = RunFilter(model, y, opt);
+  const TimeSeries g = ReadKnownInput(a.input, model, static_cast<int>(y.rows()));
+  const FilterRun run = RunFilter(model, y, g, opt);
   progress.Finish();
   std::optional<SmootherRun> sm;
   if (smooth) sm = RtsSmooth(model, run);

@@ -22,6 +22,7 @@ int RunFilterMethod(const FilterArgs& a) {
     plain.form = spec.Get("form", a.form);
     return RunFilterCommand(plain);
   }
+  if (!a.input.empty()) throw Error("--input: method '" + a.method + "' takes no known input (the Kalman filter does)");
   const ComparisonModel truth = LoadComparisonModel(a.model);
   const TimeSeries y = ReadTimeSeries(a.data);
   if (y.rows() < 1) throw Error("--data: expected at least one row of measurements, got none");

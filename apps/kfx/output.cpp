@@ -1,5 +1,5 @@
 // What the subcommands share for their output: directories, paths, atomic text files, matrices printed on
-// stdout and matrices as JSON.
+// stdout and matrices as JSON; the known-input file (--input) of simulate, filter and smooth.
 #include "output.hpp"
 
 #include <filesystem>
@@ -14,6 +14,18 @@ namespace fs = std::filesystem;
 using Eigen::MatrixXd;
 
 namespace kfx::cli {
+
+TimeSeries ReadKnownInput(const std::string& path, const Model& model, int steps) {
+  TimeSeries g(0, 0);
+  try {
+    if (!path.empty()) g = ReadTimeSeries(path);
+    RequireKnownInput(model, g, steps);
+  } catch (const Error& e) {
+    throw Error("--input: " + std::string(e.what()) +
+                (path.empty() ? " (the model has fields G, D: give the known input with --input)" : ""));
+  }
+  return g;
+}
 
 namespace {
 

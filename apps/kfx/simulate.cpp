@@ -5,6 +5,7 @@
 
 #include "commands.hpp"
 #include "kfx/continuous_model_file.hpp"
+#include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/simulation.hpp"
 
@@ -12,7 +13,8 @@ namespace kfx::cli {
 
 int RunSimulate(const SimulateArgs& a) {
   const Model model = LoadModelOrSampled(a.model);  // a continuous-time file: its sampled equivalent
-  const Trajectory tr = Simulate(model, SimulationOptions{a.steps, a.seed});  // finite, or it throws
+  const TimeSeries g = ReadKnownInput(a.input, model, a.steps);
+  const Trajectory tr = Simulate(model, g, SimulationOptions{a.steps, a.seed});  // finite, or it throws
   OutputDirectory out(a.out, "summary.json");
   const std::string ext = a.csv ? ".csv" : ".npy";
   WriteTimeSeries(out.Path("x" + ext), tr.x);

@@ -157,6 +157,11 @@ std::string HealthWarning(const FilterHealth& health, const KalmanFilterOptions&
 /// Runs the filter over y. @throws kfx::Error on dimension mismatch / horizon exceeded;
 /// kfx::NumericalError when an estimate, covariance or likelihood term is not finite.
 FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options = {});
+/// Runs the filter over y with the known input g (T x q, row k-1 = g_k; issue 22): G_k g_k is added to
+/// x_{k|k-1}, D_k g_k taken off y_k; in every form. A model with a cross-covariance S is filtered by the
+/// correlated update (kfx/model.hpp, UpdateInPlace in src/filter/conventional_form.hpp).
+/// @throws kfx::Error as above, and naming g when it does not fit the model's G, D (kfx::RequireKnownInput).
+FilterRun RunFilter(const Model& model, const TimeSeries& y, const TimeSeries& g, const FilterRunOptions& options = {});
 
 struct SmootherRun {               ///< The RTS smoother's estimates x_{k|T} and covariances P_{k|T}, k = 0..T.
   TimeSeries x;                    ///< (T+1) x n, row k = x_{k|T}
@@ -171,6 +176,10 @@ struct SmootherOptions {
 /// Rauch-Tung-Striebel smoother: G_k = P_{k|k} A_{k+1}^T P_{k+1|k}^{-1} (by a Cholesky solve; a
 /// complete orthogonal decomposition, i.e. the pseudo-inverse, when P_{k+1|k} is singular),
 /// x_{k|T} = x_{k|k} + G_k (x_{k+1|T} - x_{k+1|k}), P_{k|T} = P_{k|k} + G_k (P_{k+1|T} - P_{k+1|k}) G_k^T.
+/// A known input needs nothing more (it is in x_{k+1|k}). At a step whose model has a cross-covariance S
+/// and an observed measurement, x_k is not independent of y_{k+1} given x_{k+1}, and the step conditions on
+/// the observed measurement noise too (the run's innovations; the equations in kalman_filter.cpp,
+/// CorrelatedSmootherStep).
 /// @throws kfx::Error if the run did not store covariances or does not match the model.
 SmootherRun RtsSmooth(const Model& model, const FilterRun& run, const SmootherOptions& options = {});
 

@@ -1,9 +1,13 @@
 #pragma once
 // Discrete-time linear Gaussian state-space model (notation: docs/notation.md).
 //
-//   x_k = A_k x_{k-1} + w_k,   w_k ~ N(0, Q_k)   (or w_k = B_k u_k, u_k ~ N(0, U_k), Q_k = B_k U_k B_k^T)
-//   y_k = C_k x_k + v_k,       v_k ~ N(0, R_k)
+//   x_k = A_k x_{k-1} + G_k g_k + w_k,   w_k ~ N(0, Q_k)   (or w_k = B_k u_k, u_k ~ N(0, U_k), Q_k = B_k U_k B_k^T)
+//   y_k = C_k x_k + D_k g_k + v_k,       v_k ~ N(0, R_k),   cov(w_k, v_k) = S_k
 //   x_0 ~ N(m_0, P_0),          k = 1, 2, ...
+//
+// g_k is a known (deterministic) input of q entries (issue 22; G_k, D_k empty: none); S_k pairs the noise
+// that produces x_k with the measurement of x_k (FilterPy's M; empty: 0). Noises of different steps are
+// independent.
 //
 // The first measurement is y_1 (of x_1); x_0 is only known through its prior. Steps are numbered
 // from 1; a time-varying sequence stores step k at index k - 1.
@@ -30,9 +34,19 @@ struct ModelStep {
   /// Q = B U B^T (filled in by MakeStepWithNoiseInput). Simulation then draws u_k (p numbers).
   Eigen::MatrixXd B;
   Eigen::MatrixXd U;  ///< p x p covariance of u_k (symmetric PSD); empty when B is empty.
+  /// Optional n x q known-input matrix G_k: x_k gets G_k g_k (empty: no known input in the state).
+  Eigen::MatrixXd G;
+  /// Optional m x q feedthrough D_k: y_k gets D_k g_k (empty: none). G and D, when both given, have q columns.
+  Eigen::MatrixXd D;
+  /// Optional n x m cross-covariance S_k = E[w_k v_k^T] (empty: 0); [[Q, S], [S^T, R]] must be PSD.
+  Eigen::MatrixXd S;
 
   Eigen::Index state_dim() const { return A.rows(); }  ///< n
   Eigen::Index meas_dim() const { return C.rows(); }   ///< m
+  /// q, the length of g_k: the columns of G or D (0 when the step has no known input).
+  Eigen::Index input_dim() const { return G.size() > 0 ? G.cols() : D.cols(); }
+  bool has_known_input() const { return G.size() > 0 || D.size() > 0; }  ///< G or D given
+  bool has_cross_covariance() const { return S.size() > 0; }             ///< S given
 };
 
 /// A step with process noise covariance Q given directly.
@@ -42,7 +56,8 @@ ModelStep MakeStepWithNoiseInput(Eigen::MatrixXd A, Eigen::MatrixXd B, Eigen::Ma
                                  Eigen::MatrixXd R);
 
 /// Checks one step: dimensions (n x n, m x n, ...), finiteness, Q (and U) symmetric PSD, R symmetric
-/// PD, Q == B U B^T when B is given.
+/// PD, Q == B U B^T when B is given; G n x q, D m x q (the same q), S n x m with the joint covariance
+/// [[Q, S], [S^T, R]] PSD (reported as "S").
 /// @param label prefix for messages, e.g. "step 3: " (may be empty).
 /// @throws kfx::Error naming the offending matrix ("A", "Q", ...) and what was expected.
 void ValidateStep(const ModelStep& step, Eigen::Index n, Eigen::Index m, const std::string& label = "");
@@ -70,6 +85,8 @@ class Model {
   Eigen::Index state_dim() const { return n_; }                      ///< n
   Eigen::Index meas_dim() const { return m_; }                       ///< m
   bool time_invariant() const { return kind_ == Kind::kInvariant; }  ///< one step for every k
+  /// The known input's length q of every step (0: none). A callback model reports the q of step 1.
+  Eigen::Index input_dim() const;
   /// Number of steps for which the model is defined, or -1 when unbounded (time-invariant or
   /// callback without horizon).
   int horizon() const { return horizon_; }
@@ -96,5 +113,19 @@ class Model {
   Eigen::VectorXd m0_;
   Eigen::MatrixXd P0_;
 };
+
+/// The known-input terms of one step: G_k g_k (length n) and D_k g_k (length m); an empty vector where
+/// the step has no G (no D).
+struct KnownInputTerms {
+  Eigen::VectorXd state;
+  Eigen::VectorXd measurement;
+};
+/// The terms of step k from the series g (T x q, row k-1 = g_k; 0 columns when the model has no known input).
+/// @throws kfx::Error naming g when its width is not the step's q or row k-1 is missing or not finite.
+KnownInputTerms KnownInputAt(const ModelStep& step, const TimeSeries& g, int k);
+/// Checks g against the model for steps 1..T: at least T rows and q columns when the model has a known
+/// input (q = model.input_dim()), none (0 columns) when it has not; finite.
+/// @throws kfx::Error naming g and what was expected.
+void RequireKnownInput(const Model& model, const TimeSeries& g, int T);
 
 }  // namespace kfx

@@ -8,6 +8,9 @@
 // few products of the block sizes. With e_k = x_k - O_k z_k:
 //   E[e_k e_k^T] = [I, -O_k] (Sigma_k + mu_k mu_k^T) [I, -O_k]^T,  MSE_k = tr E[e e^T],
 //   weighted MSE_k = tr(W E[e e^T]).
+// A true model with a cross-covariance S = E[w_k v_k^T] (kfx/model.hpp) enters through the noise term:
+// its covariance is [[I, 0], [K C, K]] [[Q, S], [S^T, R]] [[I, 0], [K C, K]]^T. A true model with a known
+// input (G, D) is refused (kfx::Error naming truth): the engine does not carry the input's mean terms yet.
 // Every method of kfx reports its true error through this one engine.
 #include <Eigen/Dense>
 #include <cstdint>

@@ -51,6 +51,11 @@ struct SimulationOptions {
 /// trajectory stops being finite (a diverging model overflows): never a trajectory holding inf or NaN.
 Trajectory Simulate(const Model& model, const SimulationOptions& options = SimulationOptions());
 
+/// With the known input g (T x q, row k-1 = g_k; issue 22): x_k gets G_k g_k, y_k gets D_k g_k; with a
+/// cross-covariance S, (w_k, v_k) is drawn jointly. @throws kfx::Error naming g when it does not fit the
+/// model's G, D (kfx::RequireKnownInput), and as above.
+Trajectory Simulate(const Model& model, const TimeSeries& g, const SimulationOptions& options);
+Trajectory Simulate(const Model& model, const TimeSeries& g, const SimulationOptions& options, Rng& rng);
 /// Draws the trajectory with an Rng the caller owns (used by batch and Monte Carlo runners);
 /// options.seed is not used.
 Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& rng);

@@ -1,6 +1,7 @@
 // kfx._core: the Kalman filter as functions: predict/update on an Estimate, whole-sequence runs, the
 // RTS smoother, the offline schedule and the Kalman filter as a LinearFilter (include/kfx/kalman_filter.hpp).
 // The FilterPy-style class kfx.KalmanFilter is in bind_filterpy_kalman_filter.cpp.
+#include <optional>
 #include <string>
 
 #include "bindings.hpp"
@@ -148,7 +149,8 @@ void BindKalmanFilter(py::module_& m) {
   m.def(
       "run_filter",
       [](const Model& model, const TimeSeries& y, const py::object& store_covariances, const std::string& form,
-         const std::string& filter_form, bool monitor_health, const py::object& progress) {
+         const std::string& filter_form, bool monitor_health, const py::object& progress,
+         std::optional<TimeSeries> input) {
         FilterRunOptions o;
         o.store_covariances = StoreFullCovariances(store_covariances);
         o.filter.update_form = ParseUpdateForm(form);
@@ -158,8 +160,9 @@ void BindKalmanFilter(py::module_& m) {
         o.monitor_eigenvalues = false;
         LongCall call(progress);
         o.progress = call.callback();
+        const TimeSeries g = input ? std::move(*input) : TimeSeries(0, 0);
         PyFilterRun run;
-        static_cast<FilterRun&>(run) = call.Run([&] { return RunFilter(model, y, o); });
+        static_cast<FilterRun&>(run) = call.Run([&] { return RunFilter(model, y, g, o); });
         if (o.store_covariances) {
           run.P_filt_stack = TakeStack(&run.P_filt);
           run.P_pred_stack = TakeStack(&run.P_pred);
@@ -172,13 +175,15 @@ void BindKalmanFilter(py::module_& m) {
       },
       py::arg("model"), py::arg("y"), py::arg("store_covariances") = "diag", py::arg("update_form") = "joseph",
       py::arg("form") = "conventional", py::arg("monitor_health") = true, py::arg("progress") = py::none(),
+      py::arg("input") = py::none(),
       (std::string("Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, "
                    "starting from the prior (m0, P0) at k = 0. store_covariances: 'diag' (default: the diagonals "
                    "P_filt_diag, P_pred_diag, (T+1) n numbers) or 'full' (also every P_{k|k}, P_{k|k-1} as "
                    "P_filt, P_pred: 2 (T+1) n^2 numbers; rts_smooth needs them). form: 'conventional', 'sqrt', "
-                   "'ud' or 'information'. With monitor_health (default) the cheap health checks run (Cholesky "
-                   "of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use "
-                   "when the covariances went wrong.") +
+                   "'ud' or 'information'. input: the known input g (T, q), row k-1 = g_k, required for a model "
+                   "with G or D (a model with S is filtered by the correlated update). With monitor_health "
+                   "(default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's "
+                   ".health, and a RuntimeWarning naming the form to use when the covariances went wrong.") +
        kProgressDoc)
           .c_str());
   BindSmootherAndSchedule(m);

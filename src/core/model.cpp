@@ -67,6 +67,21 @@ void ValidateStep(const ModelStep& s, Eigen::Index n, Eigen::Index m, const std:
   RequirePositiveSemidefinite(label + "Q", s.Q);
   RequireShape(label + "R", s.R, m, m);
   RequirePositiveDefinite(label + "R", s.R);
+  if (s.G.size() > 0 || s.G.cols() > 0) {
+    RequireShape(label + "G", s.G, n, -1);
+    RequireFinite(label + "G", s.G);
+  }
+  if (s.D.size() > 0 || s.D.cols() > 0) {
+    RequireShape(label + "D", s.D, m, s.G.size() > 0 ? s.G.cols() : -1);
+    RequireFinite(label + "D", s.D);
+  }
+  if (s.S.size() > 0 || s.S.rows() > 0 || s.S.cols() > 0) {
+    RequireShape(label + "S", s.S, n, m);
+    RequireFinite(label + "S", s.S);
+    Eigen::MatrixXd joint(n + m, n + m);
+    joint << 0.5 * s.Q + 0.5 * s.Q.transpose(), s.S, s.S.transpose(), 0.5 * s.R + 0.5 * s.R.transpose();
+    RequirePositiveSemidefinite(label + "S (the joint covariance [[Q, S], [S^T, R]])", joint);
+  }
   if (noise_input) {
     const Eigen::MatrixXd bub = s.B * s.U * s.B.transpose();
     const double scale = std::max(1.0, bub.cwiseAbs().maxCoeff());
@@ -93,9 +108,15 @@ Model::Model(std::vector<ModelStep> steps, Eigen::VectorXd m0, Eigen::MatrixXd P
   m_ = steps[0].C.rows();
   RequireDimensions(n_, m_, "step 1: A", "step 1: C");
   horizon_ = static_cast<int>(steps.size());
+  const Eigen::Index q = steps[0].input_dim();
   steps_.reserve(steps.size());
   for (size_t i = 0; i < steps.size(); ++i) {
     ValidateStep(steps[i], n_, m_, "step " + std::to_string(i + 1) + ": ");
+    if (steps[i].input_dim() != q) {
+      throw Error("step " + std::to_string(i + 1) + ": " + (steps[i].G.size() > 0 ? "G" : "D") +
+                  ": expected the known input length q = " + std::to_string(q) +
+                  " of step 1, got q = " + std::to_string(steps[i].input_dim()));
+    }
     steps_.push_back(std::make_shared<const ModelStep>(std::move(steps[i])));
   }
   ValidatePrior();
@@ -126,6 +147,8 @@ StepPtr Model::step(int k) const {
       [this](const ModelStep& s, const std::string& label) { ValidateStep(s, n_, m_, label); }, "step");
 }
 
+Eigen::Index Model::input_dim() const { return step(1)->input_dim(); }
+
 int Model::ResolveSteps(int steps, const std::string& what) const {
   if (steps < 0) {
     if (horizon_ < 0) throw Error(what + ": expected a number of steps (the model has no horizon)");
@@ -144,6 +167,42 @@ Model Model::WithPrior(Eigen::VectorXd m0, Eigen::MatrixXd P0) const {
   copy.P0_ = std::move(P0);
   copy.ValidatePrior();
   return copy;
+}
+
+KnownInputTerms KnownInputAt(const ModelStep& step, const TimeSeries& g, int k) {
+  KnownInputTerms t;
+  const Eigen::Index q = step.input_dim();
+  if (!step.has_known_input()) {
+    if (g.cols() > 0) {
+      throw Error("g: expected no known input (step " + std::to_string(k) + " has no G or D), got " +
+                  std::to_string(g.cols()) + " columns");
+    }
+    return t;
+  }
+  if (g.cols() != q || g.rows() < k) {
+    throw Error("g: expected a known input of " + std::to_string(q) + " columns and at least " + std::to_string(k) +
+                " rows (row k-1 = g_k), got " + ShapeString(g.rows(), g.cols()));
+  }
+  const auto gk = g.row(k - 1).transpose();
+  if (!gk.allFinite()) throw Error("g (row " + std::to_string(k - 1) + "): expected finite entries");
+  if (step.G.size() > 0) t.state.noalias() = step.G * gk;
+  if (step.D.size() > 0) t.measurement.noalias() = step.D * gk;
+  return t;
+}
+
+void RequireKnownInput(const Model& model, const TimeSeries& g, int T) {
+  const Eigen::Index q = model.input_dim();
+  if (q == 0) {
+    if (g.cols() > 0) {
+      throw Error("g: expected no known input (the model has no G or D), got " + std::to_string(g.cols()) + " columns");
+    }
+    return;
+  }
+  if (g.cols() != q || g.rows() < T) {
+    throw Error("g: expected a known input of " + std::to_string(T) + " rows and " + std::to_string(q) +
+                " columns (the model's G, D), got " + ShapeString(g.rows(), g.cols()));
+  }
+  if (!g.topRows(T).allFinite()) throw Error("g: expected finite entries (a known input has no missing values)");
 }
 
 }  // namespace kfx

@@ -22,6 +22,13 @@ void CheckCompatible(const Model& truth, const LinearFilter& filter) {
     throw Error("filter: expected an output map to the model's " + std::to_string(truth.state_dim()) + " states, got " +
                 std::to_string(filter.output_dim()) + " outputs");
   }
+  // A known input moves the means of x and z by terms the LinearFilter form does not carry (issue 22: the
+  // engine takes the cross-covariance S, not yet G and D). Refused rather than silently left out.
+  if (truth.input_dim() > 0) {
+    throw Error(
+        "truth: the exact-performance engine does not take a known input (fields G, D) yet; evaluate the "
+        "model without G and D (a filter that models the input exactly has the same error)");
+  }
 }
 
 void CheckWeight(const Eigen::MatrixXd& weight, Eigen::Index n, const std::string& name) {
@@ -171,9 +178,11 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
     Sxx = s->Q;
     Sxx.noalias() += tmp * s->A.transpose();  // E[x' x'^T]
     Symmetrize(Sxx);
-    Sxy.noalias() = Sxx * s->C.transpose();  // E[x' y'^T]
+    Sxy.noalias() = Sxx * s->C.transpose();  // E[x' y'^T] (+ S = E[w v^T])
+    if (s->has_cross_covariance()) Sxy += s->S;
     Syy = s->R;
-    Syy.noalias() += s->C * Sxy;    // E[y' y'^T]
+    Syy.noalias() += s->C * Sxy;  // E[y' y'^T] = R + C Sxx C^T (+ C S + S^T C^T)
+    if (s->has_cross_covariance()) Syy.noalias() += s->S.transpose() * s->C.transpose();
     CASxz.noalias() = s->C * ASxz;  // E[y' z^T]
     // Szz' = K Syy K^T + K E[y'z^T] Phi^T + Phi E[z y'^T] K^T + Phi Szz Phi^T
     Eigen::MatrixXd KCASxzPhit = f->K * CASxz * f->Phi.transpose();

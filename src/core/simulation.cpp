@@ -64,7 +64,14 @@ Eigen::MatrixXd PsdFactor(const Eigen::Ref<const Eigen::MatrixXd>& M) {
 }
 
 Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& rng) {
+  return Simulate(model, TimeSeries(0, 0), options, rng);
+}
+
+// With a cross-covariance S, (w_k, v_k) is drawn at once from a factor of [[Q, S], [S^T, R]] (n + m normals
+// per step); without, w_k and v_k from their own factors as before (the same draws as earlier versions).
+Trajectory Simulate(const Model& model, const TimeSeries& g, const SimulationOptions& options, Rng& rng) {
   const int T = model.ResolveSteps(options.steps);
+  RequireKnownInput(model, g, T);
   const Eigen::Index n = model.state_dim(), m = model.meas_dim();
   Trajectory tr;
   tr.x.resize(T + 1, n);
@@ -74,22 +81,38 @@ Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& r
   if (!x.allFinite()) throw NumericalError("simulate: the initial state x_0 is not finite (P0 overflows)");
   // Factors are cached per step object: a time-invariant model factors Q and R once.
   StepPtr cached;
-  Eigen::MatrixXd Fw, Fv;
-  Eigen::VectorXd next(n);
+  Eigen::MatrixXd Fw, Fv, Fj;
+  Eigen::VectorXd next(n), v(m);
   for (int k = 1; k <= T; ++k) {
     StepPtr s = model.step(k);
     if (s != cached) {
-      Fw = s->B.size() > 0 ? Eigen::MatrixXd(s->B * PsdFactor(s->U)) : PsdFactor(s->Q);
-      Eigen::LLT<Eigen::MatrixXd> llt(s->R);
-      if (llt.info() != Eigen::Success) throw NumericalError("R: Cholesky factorization failed");
-      Fv = llt.matrixL();
+      if (s->has_cross_covariance()) {
+        Eigen::MatrixXd joint(n + m, n + m);
+        joint << s->Q, s->S, s->S.transpose(), s->R;
+        Fj = PsdFactor(joint);
+      } else {
+        Fw = s->B.size() > 0 ? Eigen::MatrixXd(s->B * PsdFactor(s->U)) : PsdFactor(s->Q);
+        Eigen::LLT<Eigen::MatrixXd> llt(s->R);
+        if (llt.info() != Eigen::Success) throw NumericalError("R: Cholesky factorization failed");
+        Fv = llt.matrixL();
+      }
       cached = s;
     }
+    const KnownInputTerms input = KnownInputAt(*s, g, k);
     next.noalias() = s->A * x;
-    next.noalias() += Fw * rng.Normal(Fw.cols());
+    if (s->has_cross_covariance()) {
+      const Eigen::VectorXd wv = Fj * rng.Normal(n + m);
+      next += wv.head(n);
+      v = wv.tail(m);
+    } else {
+      next.noalias() += Fw * rng.Normal(Fw.cols());
+    }
+    if (input.state.size() > 0) next += input.state;
     x.swap(next);
     tr.x.row(k) = x.transpose();
-    tr.y.row(k - 1) = (s->C * x + Fv * rng.Normal(m)).transpose();
+    if (!s->has_cross_covariance()) v.noalias() = Fv * rng.Normal(m);
+    if (input.measurement.size() > 0) v += input.measurement;
+    tr.y.row(k - 1) = (s->C * x + v).transpose();
     if (!tr.x.row(k).allFinite() || !tr.y.row(k - 1).allFinite()) {
       throw NumericalError("simulate: the trajectory is not finite at step " + std::to_string(k) + " of " +
                            std::to_string(T) + " (the state overflows: the model diverges; simulate fewer steps)");
@@ -102,6 +125,11 @@ Trajectory Simulate(const Model& model, const SimulationOptions& options, Rng& r
 Trajectory Simulate(const Model& model, const SimulationOptions& options) {
   Rng rng(options.seed);
   return Simulate(model, options, rng);
+}
+
+Trajectory Simulate(const Model& model, const TimeSeries& g, const SimulationOptions& options) {
+  Rng rng(options.seed);
+  return Simulate(model, g, options, rng);
 }
 
 std::vector<Trajectory> SimulateBatch(const Model& model, int runs, const SimulationOptions& options) {

@@ -25,9 +25,9 @@ struct StationaryTruth::Impl {
   detail::RealSchur schur;  ///< of A
   double rho = std::numeric_limits<double>::quiet_NaN();
   MatrixXd X;               ///< S^xx = A S^xx A^T + Q
-  MatrixXd AXAtQ_Ct;        ///< (A X A^T + Q) C^T of the computed X (n x m): the exact right-hand sides
+  MatrixXd Sxy;             ///< (A X A^T + Q) C^T + S of the computed X (n x m): E[x y^T], exact right-hand sides
   MatrixXd CA;              ///< C A (m x n)
-  MatrixXd Syy;             ///< C (A X A^T + Q) C^T + R (m x m)
+  MatrixXd Syy;             ///< C (A X A^T + Q) C^T + C S + S^T C^T + R (m x m): E[y y^T]
   double residual_xx2 = 0;  ///< |X - A X A^T - Q|_F^2
   Summary summary;
 };
@@ -67,22 +67,27 @@ void SolveStateBlock(StationaryTruth::Impl* t) {
     t->X.resize(0, 0);
     return;
   }
-  t->AXAtQ_Ct = AXAtQ * s.C.transpose();
+  // With a cross-covariance S = E[w v^T]: E[x y^T] gains S, E[y y^T] gains C S + S^T C^T.
+  t->Sxy = AXAtQ * s.C.transpose();
+  if (s.has_cross_covariance()) t->Sxy += s.S;
   t->CA = s.C * s.A;
   t->Syy = s.R;
-  t->Syy.noalias() += s.C * t->AXAtQ_Ct;
+  t->Syy.noalias() += s.C * t->Sxy;
+  if (s.has_cross_covariance()) t->Syy.noalias() += s.S.transpose() * s.C.transpose();
   Symmetrize(t->Syy);
   sum.termination = Termination::kConverged;
   sum.message = "real Schur form (DGEES) and the blocked Bartels-Stewart solve";
 }
 
-// The joint equation (4) by blocks: S^xz = A S^xz Phi^T + G, S^zz = Phi S^zz Phi^T + N(S^xz). The
-// relative residual is that of (4) itself for the computed blocks (all three).
+// The joint equation (4) by blocks: S^xz = A S^xz Phi^T + G, S^zz = Phi S^zz Phi^T + N(S^xz), with
+// G = E[x y^T] K^T = ((A X A^T + Q) C^T + S) K^T and N = K E[y y^T] K^T + K C A S^xz Phi^T + its transpose,
+// E[y y^T] = C (A X A^T + Q) C^T + C S + S^T C^T + R (the terms in S: issue 22, as in the time-domain
+// recursion of ExactPerformance). The relative residual is that of (4) itself for the computed blocks.
 void SolveJointByBlocks(const StationaryTruth::Impl& t, const LinearFilterStep& f, const detail::RealSchur& phi,
                         StationaryPerformance* out) {
   Summary& sum = out->summary;
   const ModelStep& s = *t.step;
-  const MatrixXd G = t.AXAtQ_Ct * f.K.transpose();  // (A X A^T + Q) C^T K^T, n x nz
+  const MatrixXd G = t.Sxy * f.K.transpose();  // ((A X A^T + Q) C^T + S) K^T, n x nz
   MatrixXd Y, Z;
   const bool ok_y = detail::SolveSteinBySchur(t.schur, phi, G, &Y);
   const MatrixXd H = f.K * (t.CA * Y) * f.Phi.transpose();  // K C A S^xz Phi^T
@@ -119,6 +124,11 @@ bool SolveErrorCoordinates(const ModelStep& s, const LinearFilterStep& f, double
   const double scale = std::max(1.0, F.cwiseAbs().maxCoeff());
   if (!((F - f.Phi).cwiseAbs().maxCoeff() <= 1e-10 * scale)) return false;
   MatrixXd N = IKC * s.Q * IKC.transpose() + f.K * s.R * f.K.transpose();
+  if (s.has_cross_covariance()) {  // e' = (I - K C)(A e + w) - K v: the cross term -(I - K C) S K^T + transpose
+    const MatrixXd cross = IKC * s.S * f.K.transpose();
+    N -= cross;
+    N -= cross.transpose();
+  }
   Symmetrize(N);
   LyapunovOptions lyapunov;
   lyapunov.method = LyapunovMethod::kSchur;

@@ -127,17 +127,19 @@ void MirrorLower(Mat& S) {
 // distinct step: a time-invariant model copies them once per run).
 template <typename Mat>
 struct StepMatrices {
-  Mat A, C, Q, R;
+  Mat A, C, Q, R, S;
   void Set(const ModelStep& s) {
     A = s.A;
     C = s.C;
     Q = s.Q;
     R = s.R;
+    S = s.S;
   }
   const Mat& a() const { return A; }
   const Mat& c() const { return C; }
   const Mat& q() const { return Q; }
   const Mat& r() const { return R; }
+  const Mat& cross() const { return S; }
 };
 template <>
 struct StepMatrices<Eigen::MatrixXd> {
@@ -147,6 +149,7 @@ struct StepMatrices<Eigen::MatrixXd> {
   const Eigen::MatrixXd& c() const { return s->C; }
   const Eigen::MatrixXd& q() const { return s->Q; }
   const Eigen::MatrixXd& r() const { return s->R; }
+  const Eigen::MatrixXd& cross() const { return s->S; }
 };
 
 // Storage reused from step to step by the in-place predict and update.
@@ -157,6 +160,7 @@ struct StepWorkspace {
   Mat U, K, Z;                         // n x m_obs: P C^T, the gain, Joseph's second factor
   Mat S;                               // m_obs x m_obs innovation covariance
   Mat Co, Ro;                          // observed rows of C, R when some entries are missing
+  Mat So, CS;                          // cross-covariance: observed columns of S, C S
   Vec nu, w;                           // innovation, L^{-1} nu
   Eigen::LLT<Mat> llt;                 // of S
   std::vector<Eigen::Index> observed;  // indices of the observed entries of y
@@ -222,9 +226,14 @@ void RightSolve(const Eigen::LLT<Mat>& llt, const Mat& U, Mat& K) {
 //   Joseph:   M = P - K U^T  (= (I - K C) P),   P+ = M - (M C^T) K^T + K R K^T
 // which is (I - K C) P (I - K C)^T + K R K^T evaluated without forming I - K C: O(n^2 m).
 // Returns false (nothing changed) when no entry of y is observed.
+// With a cross-covariance S = E[w_k v_k^T] (not empty; the noise producing x_k and the measurement of x_k),
+// the correlated update (FilterPy's update_correlated): U = P C^T + S, S_k = C P C^T + C S + S^T C^T + R,
+// K = U S_k^{-1}; the standard form P - K U^T holds as it is, the Joseph form is evaluated as
+// P - K Z^T - Z K^T with Z = U - K S_k / 2, which equals
+// (I - K C) P (I - K C)^T + K R K^T - (I - K C) S K^T - K S^T (I - K C)^T for any K.
 template <typename Mat, typename Vec, typename YType>
-bool UpdateInPlace(const Mat& C, const Mat& R, const YType& y, const KalmanFilterOptions& options, Vec& x, Mat& P,
-                   StepWorkspace<Mat, Vec>& w) {
+bool UpdateInPlace(const Mat& C, const Mat& R, const Mat& S, const YType& y, const KalmanFilterOptions& options, Vec& x,
+                   Mat& P, StepWorkspace<Mat, Vec>& w) {
   const Eigen::Index n = P.rows(), m = C.rows();
   w.observed.clear();
   for (Eigen::Index i = 0; i < m; ++i) {
@@ -241,10 +250,17 @@ bool UpdateInPlace(const Mat& C, const Mat& R, const YType& y, const KalmanFilte
   }
   const Mat* Cp = &C;
   const Mat* Rp = &R;
+  const bool cross = S.size() > 0;
+  const Mat* Sp = &S;
   w.nu.resize(mo);
   if (mo == m) {
     w.nu = y;
   } else {
+    if (cross) {
+      w.So.resize(n, mo);
+      for (Eigen::Index i = 0; i < mo; ++i) w.So.col(i) = S.col(w.observed[i]);
+      Sp = &w.So;
+    }
     w.Co.resize(mo, n);
     w.Ro.resize(mo, mo);
     for (Eigen::Index i = 0; i < mo; ++i) {
@@ -257,8 +273,13 @@ bool UpdateInPlace(const Mat& C, const Mat& R, const YType& y, const KalmanFilte
   }
   Prod<Mat, false>(w.nu, *Cp, x, Acc::kSub);
   Prod<Mat, true>(w.U, P, *Cp, Acc::kSet);  // n x mo
+  if (cross) w.U += *Sp;                    // P C^T + S
   w.S = *Rp;
-  Prod<Mat, false>(w.S, *Cp, w.U, Acc::kAdd);
+  Prod<Mat, false>(w.S, *Cp, w.U, Acc::kAdd);  // R + C P C^T (+ C S)
+  if (cross) {
+    Prod<Mat, false>(w.CS, *Cp, *Sp, Acc::kSet);
+    w.S += w.CS.transpose();  // + S^T C^T
+  }
   SymmetrizeInPlace(w.S);
   w.llt.compute(w.S);
   if (w.llt.info() != Eigen::Success) {
@@ -293,6 +314,15 @@ bool UpdateInPlace(const Mat& C, const Mat& R, const YType& y, const KalmanFilte
       MirrorLower(P);
       done = true;
     }
+  }
+  if (!done && cross && options.update_form == CovarianceUpdateForm::kJoseph) {
+    Prod<Mat, false>(w.Z, w.K, w.S, Acc::kSet);  // Z = U - K S_k / 2
+    w.Z *= -0.5;
+    w.Z += w.U;
+    Prod<Mat, true>(P, w.K, w.Z, Acc::kSub);
+    Prod<Mat, true>(P, w.Z, w.K, Acc::kSub);
+    if (options.symmetrize) SymmetrizeInPlace(P);
+    done = true;
   }
   if (!done) {
     Prod<Mat, true>(P, w.K, w.U, Acc::kSub);
@@ -332,9 +362,11 @@ class ConventionalForm {
   /// false (nothing changed) when no entry of y is observed.
   template <typename YType>
   bool Update(const YType& y) {
-    return UpdateInPlace(sm_.c(), sm_.r(), y, options_, x_, P_, w_);
+    return UpdateInPlace(sm_.c(), sm_.r(), sm_.cross(), y, options_, x_, P_, w_);
   }
 
+  /// x <- x + v (a known input's G_k g_k after Predict).
+  void ShiftMean(const Eigen::VectorXd& v) { x_ += v; }
   const Vec& x() const { return x_; }
   const Mat& P() const { return P_; }
   const Vec& innovation() const { return w_.nu; }
@@ -349,10 +381,12 @@ class ConventionalForm {
     S_ss_ = w_.llt;
     log_det_ss_ = 2.0 * S_ss_.matrixLLT().diagonal().array().log().sum();
   }
-  /// A step on the frozen gain (y fully observed): the mean only, P stays the frozen P_{k|k}.
+  /// A step on the frozen gain (y fully observed): the mean only, P stays the frozen P_{k|k};
+  /// shift = G_k g_k (empty: none) is added to the prediction.
   template <typename YType>
-  void FrozenStep(const YType& y) {
+  void FrozenStep(const YType& y, const Eigen::VectorXd& shift) {
     Prod<Mat, false>(x_pred_, sm_.a(), x_, Acc::kSet);
+    if (shift.size() > 0) x_pred_ += shift;
     nu_ss_ = y;
     Prod<Mat, false>(nu_ss_, sm_.c(), x_pred_, Acc::kSub);
     x_ = x_pred_;

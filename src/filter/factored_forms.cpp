@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "filter/conventional_form.hpp"
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
 
@@ -372,6 +373,7 @@ bool FactoredForm::Update(const Eigen::Ref<const VectorXd>& y) {
     return false;
   }
   const ModelStep& s = *step_;
+  if (s.has_cross_covariance()) return CorrelatedUpdate(y);
   const bool all = static_cast<Index>(observed_.size()) == s.C.rows();
   const MatrixXd Co = all ? s.C : MatrixXd(s.C(observed_, Eigen::all));
   const MatrixXd Ro = all ? s.R : MatrixXd(s.R(observed_, observed_));
@@ -382,6 +384,25 @@ bool FactoredForm::Update(const Eigen::Ref<const VectorXd>& y) {
   innovation_cov_ = std::move(u.S);
   gain_ = std::move(u.K);
   P_ = cov_->Covariance();
+  return true;
+}
+
+// With a cross-covariance S (issue 22) the factored forms do the measurement update on P itself: the
+// conventional form's correlated Joseph update (conventional_form.hpp, the one implementation of it), and
+// the result is factored again for the next time update (O(n^3) per step, as the factored updates are).
+// There is no factored correlated update here: in kfx's convention S pairs the noise producing x_k with
+// the measurement of x_k, and no transformation of the model removes it (docs/notation.md, 1.6).
+bool FactoredForm::CorrelatedUpdate(const Eigen::Ref<const VectorXd>& y) {
+  KalmanFilterOptions joseph;
+  joseph.update_form = CovarianceUpdateForm::kJoseph;
+  conventional::StepWorkspace<MatrixXd, VectorXd> w;
+  if (!conventional::UpdateInPlace(step_->C, step_->R, step_->S, y, joseph, x_, P_, w)) return false;
+  cov_ = std::make_unique<FactoredCovariance>(form_, P_);
+  observed_ = std::move(w.observed);
+  innovation_ = std::move(w.nu);
+  innovation_cov_ = std::move(w.S);
+  gain_ = std::move(w.K);
+  log_likelihood_ = w.log_likelihood;
   return true;
 }
 

@@ -32,6 +32,8 @@ class FactoredForm {
   void Predict();
   /// false (nothing changed) when no entry of y is observed.
   bool Update(const Eigen::Ref<const Eigen::VectorXd>& y);
+  /// x <- x + v (a known input's G_k g_k after Predict).
+  void ShiftMean(const Eigen::VectorXd& v) { x_ += v; }
 
   const Eigen::VectorXd& x() const { return x_; }
   const Eigen::MatrixXd& P() const { return P_; }
@@ -42,6 +44,7 @@ class FactoredForm {
   double log_likelihood() const { return log_likelihood_; }
 
  private:
+  bool CorrelatedUpdate(const Eigen::Ref<const Eigen::VectorXd>& y);
   FilterForm form_;
   Eigen::Index n_;
   const ModelStep* step_ = nullptr;

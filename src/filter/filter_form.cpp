@@ -3,10 +3,10 @@
 //
 // A form (conventional_form.hpp, factored_forms.hpp) holds x and the covariance of the current step:
 //   Form(options, n), Start(x, P), SetStep(step) (whenever the step's matrices change),
-//   Predict(), Update(y) (false when no entry of y is observed), then x(), P() (of type Matrix),
+//   Predict(), ShiftMean(v), Update(y) (false when no entry of y is observed), then x(), P() (of type Matrix),
 //   innovation(), innovation_cov(), gain(), observed(), log_likelihood() of the last update, and
 //   context(), the prefix of a step's NumericalError messages. A form with kSteadyState also has
-//   Freeze() and FrozenStep(y) with frozen_prediction(), frozen_innovation(), frozen_log_likelihood()
+//   Freeze() and FrozenStep(y, shift) with frozen_prediction(), frozen_innovation(), frozen_log_likelihood()
 //   for RunFilter's steady-state fast path.
 #include "filter/filter_form.hpp"
 
@@ -56,8 +56,11 @@ FilterRun StartRun(const Model& model, int T, bool store_covariances) {
 // The filter over a whole sequence: the form works in place, so x and its covariance (and, with the
 // steady-state fast path, P_{k-1|k-1} for the convergence test) are all the storage a step needs
 // besides the outputs.
+// A known input (issue 22) enters here, the same for every form: G_k g_k is added to x_{k|k-1} after the
+// form's Predict and D_k g_k is taken off y_k before its Update (a NaN entry stays missing).
 template <typename Form>
-FilterRun RunLoop(const Model& model, const TimeSeries& y, const FilterRunOptions& options, int T) {
+FilterRun RunLoop(const Model& model, const TimeSeries& y, const TimeSeries& g, const FilterRunOptions& options,
+                  int T) {
   const Eigen::Index m = model.meas_dim();
   FilterRun run = StartRun(model, T, options.store_covariances);
   HealthMonitor monitor(options.monitor_health, options.monitor_eigenvalues);
@@ -74,16 +77,19 @@ FilterRun RunLoop(const Model& model, const TimeSeries& y, const FilterRunOption
   bool frozen = false;
   SteadyStateSwitch steady(tol);  // the same switch as RunCoupledFilter's (base/stagnation.hpp)
   typename Form::Matrix P_prev, P_pred_ss;
+  Eigen::VectorXd yk(m);
   for (int k = 1; k <= T; ++k) {
     StepPtr s = model.step(k);
     if (s.get() != current.get()) {
       form.SetStep(*s);
       current = std::move(s);
     }
-    const auto yk = y.row(k - 1).transpose();
+    const KnownInputTerms input = KnownInputAt(*current, g, k);
+    yk = y.row(k - 1).transpose();  // into storage allocated once
+    if (input.measurement.size() > 0) yk -= input.measurement;
     if constexpr (Form::kSteadyState) {
       if (frozen && yk.allFinite()) {
-        form.FrozenStep(yk);
+        form.FrozenStep(yk, input.state);
         run.x_pred.row(k) = form.frozen_prediction().transpose();
         run.P_pred_diag.row(k) = run.P_pred_diag.row(k - 1);
         run.innovations.row(k - 1) = form.frozen_innovation().transpose();
@@ -107,6 +113,7 @@ FilterRun RunLoop(const Model& model, const TimeSeries& y, const FilterRunOption
     } catch (const NumericalError& err) {
       ThrowAtStep(k, form.context(), err);
     }
+    if (input.state.size() > 0) form.ShiftMean(input.state);
     run.x_pred.row(k) = x.transpose();
     run.P_pred_diag.row(k) = P.diagonal().transpose();
     if (options.store_covariances) run.P_pred.emplace_back(P);
@@ -222,8 +229,9 @@ class FormEntryPoints final : public KalmanForm {
     return r;
   }
 
-  FilterRun Run(const Model& model, const TimeSeries& y, const FilterRunOptions& options, int T) const override {
-    return RunLoop<Form>(model, y, options, T);
+  FilterRun Run(const Model& model, const TimeSeries& y, const TimeSeries& g, const FilterRunOptions& options,
+                int T) const override {
+    return RunLoop<Form>(model, y, g, options, T);
   }
 
   KalmanSchedule Schedule(const Model& model, const KalmanScheduleOptions& options, int T) const override {

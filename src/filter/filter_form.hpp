@@ -15,8 +15,9 @@ class KalmanForm {
   virtual Estimate Predict(const Estimate& e, const ModelStep& s, const KalmanFilterOptions& options) const = 0;
   virtual UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
                               const KalmanFilterOptions& options) const = 0;
-  /// RunFilter over steps 1..T.
-  virtual FilterRun Run(const Model& model, const TimeSeries& y, const FilterRunOptions& options, int T) const = 0;
+  /// RunFilter over steps 1..T with the known input g (checked; 0 columns when the model has none).
+  virtual FilterRun Run(const Model& model, const TimeSeries& y, const TimeSeries& g, const FilterRunOptions& options,
+                        int T) const = 0;
   /// ComputeKalmanSchedule over steps 1..T.
   virtual KalmanSchedule Schedule(const Model& model, const KalmanScheduleOptions& options, int T) const = 0;
 

@@ -3,7 +3,9 @@
 // Kalman filter as a LinearFilter.
 #include "kfx/kalman_filter.hpp"
 
+#include <cmath>
 #include <string>
+#include <vector>
 
 #include "filter/filter_form.hpp"
 #include "kfx/error.hpp"
@@ -125,6 +127,10 @@ UpdateResult KalmanFilter::Step(const Eigen::Ref<const Eigen::VectorXd>& y) {
 }
 
 FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options) {
+  return RunFilter(model, y, TimeSeries(0, 0), options);
+}
+
+FilterRun RunFilter(const Model& model, const TimeSeries& y, const TimeSeries& g, const FilterRunOptions& options) {
   std::string why;
   if (!options.filter.IsValid(&why)) throw Error("options.filter: " + why);
   const Eigen::Index n = model.state_dim(), m = model.meas_dim();
@@ -137,8 +143,53 @@ FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOpti
   if (!(tol >= 0.0 && tol <= 1e-2)) {
     throw Error("options.steady_state_tolerance: expected a value in [0, 1e-2], got " + std::to_string(tol));
   }
-  return detail::KalmanFormFor(options.filter, n, m).Run(model, y, options, T);
+  RequireKnownInput(model, g, T);
+  return detail::KalmanFormFor(options.filter, n, m).Run(model, y, g, options, T);
 }
+
+namespace {
+
+// X = P^{-1} B by a Cholesky solve, or by a complete orthogonal decomposition (the pseudo-inverse) when P
+// is singular to 1e-8 of its largest pivot.
+Eigen::MatrixXd SolveCovariance(const Eigen::MatrixXd& P, const Eigen::MatrixXd& B) {
+  Eigen::LLT<Eigen::MatrixXd> llt(P);
+  if (llt.info() == Eigen::Success) {
+    const double dmin = llt.matrixLLT().diagonal().minCoeff();
+    const double dmax = llt.matrixLLT().diagonal().maxCoeff();
+    if (dmin > 1e-8 * dmax) return llt.solve(B);
+  }
+  return Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(P).solve(B);
+}
+
+// One backward step of the smoother with a cross-covariance S of step k+1 (issue 22; `o` the observed
+// entries of y_{k+1}). Given x_{k+1} and y_{k+1}, x_k is independent of the later measurements; with
+// Sigma = S_o R_oo^{-1}, w_{k+1} = Sigma v_o + w'' (w'' independent of v_o, x_k), so
+//   x_{k+1} - Sigma v_o - G g = A x_k + w'',   P' = P_{k+1|k} - Sigma S_o^T,   J' = P_{k|k} A^T P'^{-1},
+//   x_{k|T} = x_{k|k} + J' (x_{k+1|T} - x_{k+1|k} - Sigma (y_o - D_o g - C_o x_{k+1|T})),
+//   P_{k|T} = P_{k|k} - J' A P_{k|k} + J' N P_{k+1|T} N^T J'^T,   N = I + Sigma C_o.
+// y_o - D_o g - C_o x_{k+1|T} is the innovation plus C_o (x_{k+1|k} - x_{k+1|T}). With S = 0 this is the
+// RTS step.
+void CorrelatedSmootherStep(const ModelStep& s, const std::vector<Eigen::Index>& o, const Eigen::VectorXd& nu_o,
+                            const Eigen::MatrixXd& Pf, const Eigen::VectorXd& xf, const Eigen::MatrixXd& Pp,
+                            const Eigen::VectorXd& xp, Eigen::VectorXd& xs, Eigen::MatrixXd& Ps) {
+  const Eigen::Index n = Pf.rows();
+  const Eigen::MatrixXd So = s.S(Eigen::all, o), Co = s.C(o, Eigen::all), Ro = s.R(o, o);
+  const Eigen::MatrixXd Sigma = Ro.llt().solve(So.transpose()).transpose();
+  Eigen::MatrixXd Pp2 = Pp - Sigma * So.transpose();
+  Symmetrize(Pp2);
+  const Eigen::MatrixXd APf = s.A * Pf;
+  const Eigen::MatrixXd Jt = SolveCovariance(Pp2, APf);  // J'^T
+  const Eigen::MatrixXd N = Eigen::MatrixXd::Identity(n, n) + Sigma * Co;
+  const Eigen::VectorXd r = nu_o + Co * (xp - xs);
+  xs = xf + Jt.transpose() * (xs - xp - Sigma * r);
+  const Eigen::MatrixXd JN = Jt.transpose() * N;
+  Eigen::MatrixXd next = Pf - Jt.transpose() * APf;
+  next.noalias() += JN * Ps * JN.transpose();
+  Symmetrize(next);
+  Ps = std::move(next);
+}
+
+}  // namespace
 
 SmootherRun RtsSmooth(const Model& model, const FilterRun& run, const SmootherOptions& options) {
   const Eigen::Index n = model.state_dim();
@@ -161,25 +212,26 @@ SmootherRun RtsSmooth(const Model& model, const FilterRun& run, const SmootherOp
     const size_t kk = static_cast<size_t>(k);
     const StepPtr s = model.step(k + 1);
     const Eigen::MatrixXd& Pp = run.P_pred[kk + 1];
-    const Eigen::MatrixXd APf = s->A * run.P_filt[kk];  // A_{k+1} P_{k|k}  (= (P_{k|k} A^T)^T)
-    Eigen::MatrixXd Gt;                                 // G_k^T = P_{k+1|k}^{-1} A_{k+1} P_{k|k}
-    Eigen::LLT<Eigen::MatrixXd> llt(Pp);
-    bool solved = false;
-    if (llt.info() == Eigen::Success) {
-      const double dmin = llt.matrixLLT().diagonal().minCoeff();
-      const double dmax = llt.matrixLLT().diagonal().maxCoeff();
-      if (dmin > 1e-8 * dmax) {
-        Gt = llt.solve(APf);
-        solved = true;
+    std::vector<Eigen::Index> o;  // observed entries of y_{k+1} at a step with S (empty: the RTS step)
+    if (s->has_cross_covariance() && run.innovations.rows() >= k + 1) {
+      for (Eigen::Index i = 0; i < run.innovations.cols(); ++i) {
+        if (!std::isnan(run.innovations(k, i))) o.push_back(i);
       }
     }
-    if (!solved) Gt = Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(Pp).solve(APf);
-    const Eigen::MatrixXd G = Gt.transpose();
-    xs = run.x_filt.row(k).transpose() + G * (xs - run.x_pred.row(k + 1).transpose());
-    Eigen::MatrixXd D = Ps - Pp;
-    Ps = run.P_filt[kk];
-    Ps.noalias() += G * D * Gt;
-    Symmetrize(Ps);
+    if (!o.empty()) {
+      const Eigen::VectorXd nu_o = run.innovations.row(k)(o).transpose();
+      CorrelatedSmootherStep(*s, o, nu_o, run.P_filt[kk], run.x_filt.row(k).transpose(), Pp,
+                             run.x_pred.row(k + 1).transpose(), xs, Ps);
+    } else {
+      const Eigen::MatrixXd APf = s->A * run.P_filt[kk];    // A_{k+1} P_{k|k}  (= (P_{k|k} A^T)^T)
+      const Eigen::MatrixXd Gt = SolveCovariance(Pp, APf);  // G_k^T = P_{k+1|k}^{-1} A_{k+1} P_{k|k}
+      const Eigen::MatrixXd G = Gt.transpose();
+      xs = run.x_filt.row(k).transpose() + G * (xs - run.x_pred.row(k + 1).transpose());
+      Eigen::MatrixXd D = Ps - Pp;
+      Ps = run.P_filt[kk];
+      Ps.noalias() += G * D * Gt;
+      Symmetrize(Ps);
+    }
     sm.x.row(k) = xs.transpose();
     sm.P_diag.row(k) = Ps.diagonal().transpose();
     sm.P[kk] = Ps;

@@ -4,6 +4,7 @@
 #include <climits>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -38,6 +39,11 @@ struct MatrixField {
   Eigen::Index rows() const { return values.front().rows(); }
   Eigen::Index cols() const { return values.front().cols(); }
   const Eigen::MatrixXd& at(std::size_t k) const { return values[time_varying ? k : 0]; }
+};
+
+// The optional fields of issue 22: known-input matrices G, D and the cross-covariance S.
+struct Extras {
+  MatrixField G, D, S;
 };
 
 class ModelFileReader {
@@ -77,6 +83,15 @@ class ModelFileReader {
     MatrixField Q = ReadMatrixField(root, "Q", false, true);
     if (!Q.present && !B.present) Fail("missing field 'Q' (or the noise input 'B' with its covariance 'U')");
     if (Q.present) RequireFieldShape("Q", Q, n, n);
+    // Known input g_k (x_k gets G g_k, y_k gets D g_k) and the cross-covariance S (issue 22), all optional.
+    Extras extras{ReadMatrixField(root, "G", false, true), ReadMatrixField(root, "D", false, true),
+                  ReadMatrixField(root, "S", false, true)};
+    if (extras.G.present && extras.G.rows() != n) {
+      FailField("G", "expected a matrix with " + std::to_string(n) + " rows (the state dimension, from 'A'), got " +
+                         ShapeString(extras.G.values.front()));
+    }
+    if (extras.D.present) RequireFieldShape("D", extras.D, m, extras.G.present ? extras.G.cols() : extras.D.cols());
+    if (extras.S.present) RequireFieldShape("S", extras.S, n, m);
 
     const Eigen::VectorXd m0 = ReadVectorField(root, "m0");
     if (m0.size() != n) {
@@ -89,8 +104,10 @@ class ModelFileReader {
     // The horizon: agreed by every time-varying field and by "horizon".
     long long steps = -1;
     std::string steps_from;
-    for (const auto& f : {std::make_pair("A", &A), std::make_pair("C", &C), std::make_pair("Q", &Q),
-                          std::make_pair("R", &R), std::make_pair("B", &B), std::make_pair("U", &U)}) {
+    for (const auto& f :
+         {std::make_pair("A", &A), std::make_pair("C", &C), std::make_pair("Q", &Q), std::make_pair("R", &R),
+          std::make_pair("B", &B), std::make_pair("U", &U), std::make_pair("G", &extras.G),
+          std::make_pair("D", &extras.D), std::make_pair("S", &extras.S)}) {
       const MatrixField& field = *f.second;
       if (!field.present || !field.time_varying) continue;
       const auto t = static_cast<long long>(field.values.size());
@@ -117,9 +134,9 @@ class ModelFileReader {
     if (steps > INT_MAX) Fail("a time-varying model of " + std::to_string(steps) + " steps is too long");
 
     try {
-      if (steps < 0) return Model(MakeStepAt(A, C, Q, R, B, U, 0), m0, P0.values.front());
+      if (steps < 0) return Model(MakeStepAt(A, C, Q, R, B, U, extras, 0), m0, P0.values.front());
       std::int64_t per_step = kStepOverhead;
-      for (const MatrixField* f : {&A, &C, &Q, &R, &B, &U}) {
+      for (const MatrixField* f : {&A, &C, &Q, &R, &B, &U, &extras.G, &extras.D, &extras.S}) {
         if (f->present) per_step += static_cast<std::int64_t>(f->rows() * f->cols());
       }
       if (B.present && !Q.present) per_step += static_cast<std::int64_t>(n * n);
@@ -133,7 +150,7 @@ class ModelFileReader {
       sequence.reserve(static_cast<std::size_t>(steps));
       for (long long k = 0; k < steps; ++k) {
         try {
-          sequence.push_back(MakeStepAt(A, C, Q, R, B, U, static_cast<std::size_t>(k)));
+          sequence.push_back(MakeStepAt(A, C, Q, R, B, U, extras, static_cast<std::size_t>(k)));
         } catch (const Error& e) {
           throw Error("step " + std::to_string(k + 1) + ": " + e.what());
         }
@@ -163,7 +180,7 @@ class ModelFileReader {
       step = rest.substr(0, colon + 2);
       rest = rest.substr(colon + 2);
     }
-    for (const char* name : {"A", "C", "Q", "R", "B", "U", "m0", "P0"}) {
+    for (const char* name : {"A", "C", "Q", "R", "B", "U", "G", "D", "S", "m0", "P0"}) {
       const std::string prefix = std::string(name) + ": ";
       if (rest.compare(0, prefix.size(), prefix) == 0) {
         return "field '" + std::string(name) + "': " + step + rest.substr(prefix.size());
@@ -278,13 +295,20 @@ class ModelFileReader {
   }
 
   static ModelStep MakeStepAt(const MatrixField& A, const MatrixField& C, const MatrixField& Q, const MatrixField& R,
-                              const MatrixField& B, const MatrixField& U, std::size_t k) {
-    if (!B.present) return MakeStep(A.at(k), C.at(k), Q.at(k), R.at(k));
-    if (!Q.present) return MakeStepWithNoiseInput(A.at(k), B.at(k), U.at(k), C.at(k), R.at(k));
-    // Q given with B and U: kept as written (the Model checks Q = B U B^T).
-    ModelStep s = MakeStep(A.at(k), C.at(k), Q.at(k), R.at(k));
-    s.B = B.at(k);
-    s.U = U.at(k);
+                              const MatrixField& B, const MatrixField& U, const Extras& extras, std::size_t k) {
+    ModelStep s;
+    if (!B.present) {
+      s = MakeStep(A.at(k), C.at(k), Q.at(k), R.at(k));
+    } else if (!Q.present) {
+      s = MakeStepWithNoiseInput(A.at(k), B.at(k), U.at(k), C.at(k), R.at(k));
+    } else {  // Q given with B and U: kept as written (the Model checks Q = B U B^T).
+      s = MakeStep(A.at(k), C.at(k), Q.at(k), R.at(k));
+      s.B = B.at(k);
+      s.U = U.at(k);
+    }
+    if (extras.G.present) s.G = extras.G.at(k);
+    if (extras.D.present) s.D = extras.D.at(k);
+    if (extras.S.present) s.S = extras.S.at(k);
     return s;
   }
 
@@ -380,6 +404,7 @@ class ModelFileWriter {
       AddField(&json, "B", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.B; });
       AddField(&json, "U", steps, [](const ModelStep& s) -> const Eigen::MatrixXd& { return s.U; });
     }
+    AddExtras(&json, steps, model.input_dim());
     // m0 and P0.
     const Eigen::VectorXd& m0 = model.m0();
     if (Inline(m0.size())) {
@@ -411,6 +436,27 @@ class ModelFileWriter {
       WriteNpyMatrix(NpyPath(name), m);
       *json += prefix + Reference(name) + ",\n";
     }
+  }
+
+  // G, D and S (issue 22), each written when some step has it; a step without it gets zeros of the
+  // same shape (which mean the same: no input through that matrix, no cross-covariance).
+  void AddExtras(std::string* json, const std::vector<StepPtr>& steps, Eigen::Index q) const {
+    const Eigen::Index n = steps.front()->A.rows(), m = steps.front()->C.rows();
+    const auto add = [&](const char* name, Eigen::MatrixXd ModelStep::*member, Eigen::Index rows, Eigen::Index cols) {
+      bool any = false;
+      for (const StepPtr& s : steps) any = any || ((*s).*member).size() > 0;
+      if (!any || cols == 0) return;
+      std::vector<StepPtr> view;  // only the one matrix of each step, zeros where absent
+      for (const StepPtr& s : steps) {
+        ModelStep f;
+        f.*member = ((*s).*member).size() > 0 ? ((*s).*member) : Eigen::MatrixXd::Zero(rows, cols);
+        view.push_back(std::make_shared<const ModelStep>(std::move(f)));
+      }
+      AddField(json, name, view, [member](const ModelStep& s) -> const Eigen::MatrixXd& { return s.*member; });
+    };
+    add("G", &ModelStep::G, n, q);
+    add("D", &ModelStep::D, m, q);
+    add("S", &ModelStep::S, n, m);
   }
 
   template <typename Get>
