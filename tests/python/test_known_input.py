@@ -1,0 +1,131 @@
+"""A known input G g / D g and a cross-covariance S from Python (issue 22): kfx.Model(..., G=, D=, S=),
+kfx.simulate(..., input=) and kfx.run_filter(..., input=) against a numpy loop of the correlated Kalman
+filter (an independent implementation of the closed-form recursion), the smoother against the stacked
+Gaussian posterior, and the errors naming the argument."""
+import numpy as np
+import pytest
+
+import kfx
+
+
+def numpy_correlated_kalman(A, C, Q, R, G, D, S, m0, P0, ys, gs):
+    """x_k = A x + G g_k + w, y_k = C x_k + D g_k + v, E[w v^T] = S: predict, then the correlated update."""
+    x, P = np.array(m0, float), np.array(P0, float)
+    xs, Ps, ll = [x], [P], 0.0
+    for y, g in zip(ys, gs):
+        x = A @ x + G @ g
+        P = A @ P @ A.T + Q
+        U = P @ C.T + S
+        Sk = C @ P @ C.T + C @ S + S.T @ C.T + R
+        K = np.linalg.solve(Sk, U.T).T
+        nu = y - C @ x - D @ g
+        x = x + K @ nu
+        P = P - K @ U.T
+        ll += -0.5 * (len(y) * np.log(2 * np.pi) + np.linalg.slogdet(Sk)[1] + nu @ np.linalg.solve(Sk, nu))
+        xs.append(x)
+        Ps.append(P)
+    return np.array(xs), np.array(Ps), ll
+
+
+@pytest.fixture
+def driven():
+    rng = np.random.default_rng(22)
+    n, m, q = 3, 2, 2
+    A = rng.standard_normal((n, n))
+    A *= 0.9 / max(abs(np.linalg.eigvals(A)))
+    F = rng.standard_normal((n + m, n + m)) / np.sqrt(n + m)
+    J = F @ F.T + 0.1 * np.eye(n + m)
+    return dict(A=A, C=rng.standard_normal((m, n)), Q=J[:n, :n], R=J[n:, n:], S=J[:n, n:],
+                G=rng.standard_normal((n, q)), D=rng.standard_normal((m, q)), m0=rng.standard_normal(n),
+                P0=np.eye(n))
+
+
+def test_model_keeps_g_d_s(driven):
+    model = kfx.Model(**driven)
+    assert model.input_dim == 2
+    step = model.step(1)
+    np.testing.assert_array_equal(step.G, driven["G"])
+    np.testing.assert_array_equal(step.D, driven["D"])
+    np.testing.assert_array_equal(step.S, driven["S"])
+    plain = kfx.Model(**{k: v for k, v in driven.items() if k not in "GDS"})
+    assert plain.input_dim == 0 and plain.step(1).S.size == 0
+
+
+@pytest.mark.parametrize("form", ["conventional", "sqrt", "ud", "information"])
+def test_run_filter_with_input_and_s_equals_a_numpy_loop(driven, form):
+    model = kfx.Model(**driven)
+    T = 40
+    g = np.random.default_rng(5).standard_normal((T, 2))
+    _, y = kfx.simulate(model, steps=T, seed=3, input=g)
+    run = kfx.run_filter(model, y, store_covariances="full", form=form, input=g)
+    xs, Ps, ll = numpy_correlated_kalman(*(driven[k] for k in "A C Q R G D S m0 P0".split()), y, g)
+    np.testing.assert_allclose(run.x_filt, xs, rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(run.P_filt, Ps, rtol=1e-8, atol=1e-9)
+    assert run.log_likelihood == pytest.approx(ll, rel=1e-10)
+
+
+def test_simulate_with_input_is_the_driven_recursion(driven):
+    d = dict(driven, Q=np.zeros((3, 3)), S=np.zeros((3, 2)), P0=np.zeros((3, 3)))
+    model = kfx.Model(**d)
+    T = 3000
+    g = np.random.default_rng(6).standard_normal((T, 2))
+    x, y = kfx.simulate(model, steps=T, seed=8, input=g)
+    ref = [d["m0"]]
+    for k in range(T):
+        ref.append(d["A"] @ ref[-1] + d["G"] @ g[k])
+    np.testing.assert_allclose(x, np.array(ref), rtol=1e-10, atol=1e-10)
+    v = y - x[1:] @ d["C"].T - g @ d["D"].T  # the measurement noise, N(0, R)
+    assert np.all(np.abs(v.mean(0)) < 4 * np.sqrt(np.diag(d["R"]) / T))
+
+
+def test_smoother_with_s_equals_the_stacked_gaussian_posterior(driven):
+    model = kfx.Model(**driven)
+    A, C, Q, R, G, D, S = (driven[k] for k in "A C Q R G D S".split())
+    T, n, m = 12, 3, 2
+    g = np.random.default_rng(9).standard_normal((T, 2))
+    _, y = kfx.simulate(model, steps=T, seed=4, input=g)
+    sm = kfx.rts_smooth(model, kfx.run_filter(model, y, store_covariances="full", input=g))
+    # (x_0..x_T, y_1..y_T) = mean + L xi, xi = (x_0 - m0, (w_1, v_1), ..., (w_T, v_T)).
+    N = n + T * (n + m)
+    Lx, mx = np.zeros(((T + 1) * n, N)), np.zeros((T + 1) * n)
+    Ly, my = np.zeros((T * m, N)), np.zeros(T * m)
+    Lx[:n, :n], mx[:n] = np.eye(n), driven["m0"]
+    Xi = np.zeros((N, N))
+    Xi[:n, :n] = driven["P0"]
+    for k in range(1, T + 1):
+        c, i, j = n + (k - 1) * (n + m), k * n, (k - 1) * m
+        Lx[i:i + n] = A @ Lx[i - n:i]
+        Lx[i:i + n, c:c + n] += np.eye(n)
+        mx[i:i + n] = A @ mx[i - n:i] + G @ g[k - 1]
+        Ly[j:j + m] = C @ Lx[i:i + n]
+        Ly[j:j + m, c + n:c + n + m] += np.eye(m)
+        my[j:j + m] = C @ mx[i:i + n] + D @ g[k - 1]
+        Xi[c:c + n + m, c:c + n + m] = np.block([[Q, S], [S.T, R]])
+    Cxy, Cyy = Lx @ Xi @ Ly.T, Ly @ Xi @ Ly.T
+    K = np.linalg.solve(Cyy, Cxy.T).T
+    mean = mx + K @ (y.reshape(-1) - my)
+    cov = Lx @ Xi @ Lx.T - K @ Cxy.T
+    np.testing.assert_allclose(sm.x, mean.reshape(T + 1, n), rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(sm.P_diag, np.diag(cov).reshape(T + 1, n), rtol=1e-8, atol=1e-9)
+
+
+def test_errors_name_the_argument(driven):
+    bad = dict(driven, G=np.ones((2, 2)))
+    with pytest.raises(kfx.Error, match=r"^G:"):
+        kfx.Model(**bad)
+    with pytest.raises(kfx.Error, match=r"^D:"):
+        kfx.Model(**dict(driven, D=np.ones((2, 3))))
+    with pytest.raises(kfx.Error, match=r"^S:"):
+        kfx.Model(**dict(driven, S=np.ones((2, 3))))
+    with pytest.raises(kfx.Error, match=r"joint covariance"):
+        kfx.Model(**dict(driven, S=10 * np.ones((3, 2))))
+    with pytest.raises(kfx.Error, match=r"^G:"):
+        kfx.ModelStep(A=driven["A"], C=driven["C"], Q=driven["Q"], R=driven["R"], G=np.ones((4, 1)))
+    model = kfx.Model(**driven)
+    y = np.zeros((5, 2))
+    with pytest.raises(kfx.Error, match=r"^g:"):
+        kfx.run_filter(model, y)  # the model has G, D: the input is required
+    with pytest.raises(kfx.Error, match=r"^g:"):
+        kfx.run_filter(model, y, input=np.zeros((5, 3)))
+    with pytest.raises(kfx.Error, match=r"^g:"):
+        kfx.simulate(model, steps=5, input=np.zeros((4, 2)))
