@@ -1,5 +1,5 @@
 // The C++ side of `make bench-peers` (bench/peers/peers.py drives it): times kfx and SLICOT
-// (SB02OD, SB03MD, called through their Fortran interfaces exactly as a C++ user would) on the
+// (SB02OD, SG02AD, SB03MD, called through their Fortran interfaces exactly as a C++ user would) on the
 // seeded systems that peers.py wrote as .npy files, writes the solutions back as .npy for the
 // checks in peers.py, and prints one JSON object on stdout. Times are process CPU seconds
 // (CLOCK_PROCESS_CPUTIME_ID), one BLAS thread (the caller sets OPENBLAS_NUM_THREADS=1).
@@ -8,6 +8,8 @@
 //                                        would ask for (bench/blas_kernel.py decides with it)
 //   kfx_peers dgemm REPS                 single-thread DGEMM rate (n = 1000, Eigen -> OpenBLAS)
 //   kfx_peers dare DIR N REPS            SolveFilterDare vs SB02OD on DIR/dare_N_{A,C,Q,R}.npy
+//   kfx_peers dare_se DIR N REPS         SolveFilterDare with S and E vs SG02AD and vs SB02OD (L = S after
+//                                        E^{-1}) on DIR/dare_se_N_{A,C,Q,R,S,E}.npy
 //   kfx_peers lyap DIR N REPS            SolveDiscreteLyapunov vs SB03MD on DIR/lyap_N_{A,Q}.npy
 //   kfx_peers kf DIR N REPS COV_STEPS TOL  RunFilter (1000 steps) on DIR/kf_N_*.npy, and the
 //                                        covariance recursion alone for COV_STEPS steps
@@ -88,12 +90,14 @@ MatrixXd Load(const std::string& dir, const std::string& name) { return kfx::Rea
 
 // SLICOT SB02OD on the filter DARE (the dual control DARE with A^T, C^T), as kfx's kSchur calls it
 // but without kfx's post-processing: the bare peer. Returns info.
-int Sb02od(const MatrixXd& A, const MatrixXd& C, const MatrixXd& Q, const MatrixXd& R, MatrixXd* X) {
+// With L (n x m, the cross term S of the filter DARE; JOBL = 'N') when given.
+int Sb02od(const MatrixXd& A, const MatrixXd& C, const MatrixXd& Q, const MatrixXd& R, MatrixXd* X,
+           const MatrixXd* L = nullptr) {
   const int n = static_cast<int>(A.rows()), m = static_cast<int>(C.rows()), p = 0;
   const int ld_n = std::max(1, n), ld_m = std::max(1, m), ld_st = std::max(1, 2 * n + m), ld_u = std::max(1, 2 * n);
-  const int ld_l = 1;
+  const int ld_l = L ? ld_n : 1;
   MatrixXd a = A.transpose(), b = C.transpose(), q = Q, r = R;
-  std::vector<double> l(1, 0.0);
+  std::vector<double> l = L ? std::vector<double>(L->data(), L->data() + L->size()) : std::vector<double>(1, 0.0);
   X->resize(n, n);
   const size_t two_n = static_cast<size_t>(std::max(1, 2 * n));
   std::vector<double> alfar(two_n), alfai(two_n), beta(two_n);
@@ -106,11 +110,48 @@ int Sb02od(const MatrixXd& A, const MatrixXd& C, const MatrixXd& Q, const Matrix
   double rcond = 0.0;
   const double tol = 0.0;
   int info = 0;
-  sb02od_("D", "B", "N", "U", "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n, r.data(), &ld_m,
-          l.data(), &ld_l, &rcond, X->data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(), &ld_st,
-          t.data(), &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info, 1, 1, 1, 1,
-          1, 1);
+  sb02od_("D", "B", "N", "U", L ? "N" : "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n,
+          r.data(), &ld_m, l.data(), &ld_l, &rcond, X->data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(),
+          &ld_st, t.data(), &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info, 1,
+          1, 1, 1, 1, 1);
   return info;
+}
+
+// SLICOT SG02AD on the filter DARE with cross term S and descriptor E (the dual control DARE with
+// A^T, E^T, C^T, L = S; SCAL = 'G', ACC = 'R' as kfx's kSchur calls it), the bare peer. Returns info.
+int Sg02ad(const MatrixXd& A, const MatrixXd& E, const MatrixXd& C, const MatrixXd& Q, const MatrixXd& R,
+           const MatrixXd& S, MatrixXd* X) {
+  const int n = static_cast<int>(A.rows()), m = static_cast<int>(C.rows()), p = 0;
+  const int ld_n = std::max(1, n), ld_m = std::max(1, m), ld_st = std::max(1, 2 * n + m), ld_u = std::max(1, 2 * n);
+  MatrixXd a = A.transpose(), e = E.transpose(), b = C.transpose(), q = Q, r = R, l = S;
+  X->resize(n, n);
+  const size_t two_n = static_cast<size_t>(std::max(1, 2 * n));
+  std::vector<double> alfar(two_n), alfai(two_n), beta(two_n);
+  std::vector<double> s(static_cast<size_t>(ld_st) * static_cast<size_t>(ld_st));
+  std::vector<double> t(static_cast<size_t>(ld_st) * two_n), u(static_cast<size_t>(ld_u) * two_n);
+  std::vector<int> iwork(static_cast<size_t>(std::max({1, m, 2 * n})));
+  std::vector<kfx_fortran_logical> bwork(two_n);
+  const int ldwork = std::max({14 * n + 23, 16 * n, 2 * n + m, 3 * m}) + 64 * (2 * n + m);
+  std::vector<double> dwork(static_cast<size_t>(ldwork));
+  double rcond = 0.0;
+  const double tol = 0.0;
+  int iwarn = 0, info = 0;
+  sg02ad_("D", "B", "N", "U", "N", "G", "S", "R", &n, &m, &p, a.data(), &ld_n, e.data(), &ld_n, b.data(), &ld_n,
+          q.data(), &ld_n, r.data(), &ld_m, l.data(), &ld_n, &rcond, X->data(), &ld_n, alfar.data(), alfai.data(),
+          beta.data(), s.data(), &ld_st, t.data(), &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork,
+          bwork.data(), &iwarn, &info, 1, 1, 1, 1, 1, 1, 1, 1);
+  return info;
+}
+
+// SB02OD has no E: the user of SB02OD multiplies by E^{-1} (LU) first, A~ = E^{-1} A, Q~ = E^{-1} Q E^{-T},
+// L = E^{-1} S, and calls SB02OD with L (timed with the transformation).
+int Sb02odWithInverse(const MatrixXd& A, const MatrixXd& E, const MatrixXd& C, const MatrixXd& Q, const MatrixXd& R,
+                      const MatrixXd& S, MatrixXd* X) {
+  const Eigen::PartialPivLU<MatrixXd> lu(E);
+  const MatrixXd At = lu.solve(A), St = lu.solve(S);
+  MatrixXd Qt = lu.solve(MatrixXd(lu.solve(Q).transpose()));
+  Qt = 0.5 * (Qt + Qt.transpose()).eval();
+  return Sb02od(At, C, Qt, R, X, &St);
 }
 
 // SLICOT SB03MD on X = A X A^T + Q (TRANA = 'T', C = -Q; X / scale), the bare peer.
@@ -173,6 +214,46 @@ int Dare(const std::string& dir, int n, int reps) {
             << ", \"kfx_lyapunov_certified\": " << (sol.lyapunov_certified ? "true" : "false")
             << ", \"kfx_eigenvalues_exact\": " << (sol.eigenvalues_exact ? "true" : "false")
             << ", \"kfx_rho_reported\": " << Num(sol.closed_loop_spectral_radius)
+            << ", \"kfx_residual\": " << Num(sol.summary.relative_residual) << "}\n";
+  return 0;
+}
+
+// The filter DARE with cross term S and descriptor E: kfx vs SG02AD and vs SB02OD after E^{-1}.
+int DareSE(const std::string& dir, int n, int reps) {
+  const std::string p = "dare_se_" + std::to_string(n) + "_";
+  const MatrixXd A = Load(dir, p + "A"), C = Load(dir, p + "C"), Q = Load(dir, p + "Q"), R = Load(dir, p + "R");
+  const MatrixXd S = Load(dir, p + "S"), E = Load(dir, p + "E");
+  std::vector<double> t_kfx, t_sg, t_sb, ratio_sg, ratio_sb;
+  kfx::DareSolution sol;
+  MatrixXd X_sg, X_sb;
+  int info_sg = 0, info_sb = 0;
+  sol = kfx::SolveFilterDare(A, C, Q, R, S, E);  // untimed first calls (see Dare)
+  info_sg = Sg02ad(A, E, C, Q, R, S, &X_sg);
+  info_sb = Sb02odWithInverse(A, E, C, Q, R, S, &X_sb);
+  for (int i = 0; i < reps; ++i) {  // interleaved
+    double t0 = CpuSeconds();
+    sol = kfx::SolveFilterDare(A, C, Q, R, S, E);
+    t_kfx.push_back(CpuSeconds() - t0);
+    t0 = CpuSeconds();
+    info_sg = Sg02ad(A, E, C, Q, R, S, &X_sg);
+    t_sg.push_back(CpuSeconds() - t0);
+    t0 = CpuSeconds();
+    info_sb = Sb02odWithInverse(A, E, C, Q, R, S, &X_sb);
+    t_sb.push_back(CpuSeconds() - t0);
+    ratio_sg.push_back(t_sg.back() / t_kfx.back());
+    ratio_sb.push_back(t_sb.back() / t_kfx.back());
+  }
+  kfx::WriteNpyMatrix(dir + "/" + p + "X_kfx.npy", sol.P_pred);
+  kfx::WriteNpyMatrix(dir + "/" + p + "X_sg02ad.npy", X_sg);
+  kfx::WriteNpyMatrix(dir + "/" + p + "X_sb02od.npy", X_sb);
+  std::cout << "{\"kfx\": " << JsonList(t_kfx) << ", \"sg02ad\": " << JsonList(t_sg)
+            << ", \"sb02od\": " << JsonList(t_sb) << ", \"paired_ratio_sg02ad\": " << JsonList(ratio_sg)
+            << ", \"paired_ratio_sb02od\": " << JsonList(ratio_sb) << ", \"sg02ad_info\": " << info_sg
+            << ", \"sb02od_info\": " << info_sb << ", \"kfx_status\": \"" << kfx::ToString(sol.summary.termination)
+            << "\", \"kfx_method\": \"" << kfx::ToString(sol.method_used)
+            << "\", \"kfx_fell_back\": " << (sol.fell_back ? "true" : "false")
+            << ", \"kfx_steps\": " << sol.summary.iterations << ", \"kfx_refine\": " << sol.refinement_steps
+            << ", \"kfx_lyapunov_certified\": " << (sol.lyapunov_certified ? "true" : "false")
             << ", \"kfx_residual\": " << Num(sol.summary.relative_residual) << "}\n";
   return 0;
 }
@@ -374,6 +455,7 @@ int main(int argc, char** argv) {
     if (a.size() == 1 && a[0] == "blas") return Blas();
     if (a.size() == 2 && a[0] == "dgemm") return Dgemm(std::stoi(a[1]));
     if (a.size() == 4 && a[0] == "dare") return Dare(a[1], std::stoi(a[2]), std::stoi(a[3]));
+    if (a.size() == 4 && a[0] == "dare_se") return DareSE(a[1], std::stoi(a[2]), std::stoi(a[3]));
     if (a.size() == 4 && a[0] == "lyap") return Lyap(a[1], std::stoi(a[2]), std::stoi(a[3]));
     if (a.size() == 6 && a[0] == "kf")
       return Kf(a[1], std::stoi(a[2]), std::stoi(a[3]), std::stoi(a[4]), std::stod(a[5]));
@@ -381,6 +463,7 @@ int main(int argc, char** argv) {
     std::cerr << "kfx_peers: " << e.what() << "\n";
     return 1;
   }
-  std::cerr << "usage: kfx_peers blas | dgemm REPS | dare DIR N REPS | lyap DIR N REPS | kf DIR N REPS COV_STEPS TOL\n";
+  std::cerr << "usage: kfx_peers blas | dgemm REPS | dare DIR N REPS | dare_se DIR N REPS | lyap DIR N REPS | kf DIR N "
+               "REPS COV_STEPS TOL\n";
   return 2;
 }

@@ -5,6 +5,8 @@ Generates seeded systems (written as .npy for the C++ driver kfx_peers and as ra
 .bin for Octave), times in the same run, one BLAS thread, process CPU time, best of several
 repetitions:
   DARE      kfx SolveFilterDare | SLICOT SB02OD (C++) | scipy solve_discrete_are | Octave dare
+  DARE S, E kfx SolveFilterDare(A, C, Q, R, S, E) | SLICOT SG02AD (C++) | SLICOT SB02OD with L = S after E^{-1}
+          (C++) | scipy solve_discrete_are(a, b, q, r, e, s) | Octave dare(a, b, q, r, s, e)
   Lyapunov  kfx SolveDiscreteLyapunov | SLICOT SB03MD (C++) | scipy solve_discrete_lyapunov
   KF        kfx RunFilter (1000 steps; with the steady-state switch and with every step full) | a plain numpy
           predict/update loop | FilterPy (if importable) | at n = 4 a fixed-size Eigen filter (C++)
@@ -12,7 +14,7 @@ checks every solution in this script (relative residual, stabilizing, symmetric 
 from SLICOT's X; filters: difference from the numpy loop), and writes OUT/peers.json and
 OUT/peers.md (the table of docs/benchmarks.md).
 
-Usage: peers.py --driver BUILD/bench/kfx_peers --out DIR [--quick] [--only dare|lyapunov|kf ...]
+Usage: peers.py --driver BUILD/bench/kfx_peers --out DIR [--quick] [--only dare|dare_se|lyapunov|kf ...]
 """
 import argparse
 import json
@@ -33,6 +35,7 @@ import scipy  # noqa: E402
 import scipy.linalg as sla  # noqa: E402
 
 DARE_N = [10, 50, 100, 200, 400]
+DARE_SE_N = [50, 100, 200]
 LYAP_N = [10, 50, 100, 200, 400]
 KF_N = [4, 50, 200, 1000]
 KF_T = 1000
@@ -93,6 +96,23 @@ def dare_check(A, C, Q, R, P, P_ref):
     Pf = P - K @ C @ P
     res = np.linalg.norm(P - A @ Pf @ A.T - Q) / max(np.linalg.norm(P), 1e-300)
     rho = np.max(np.abs(np.linalg.eigvals(A - A @ K @ C)))
+    sym = np.linalg.norm(P - P.T) / np.linalg.norm(P)
+    lmin = np.min(np.linalg.eigvalsh(0.5 * (P + P.T))) / np.linalg.norm(P)
+    diff = np.linalg.norm(P - P_ref) / np.linalg.norm(P_ref)
+    ok = bool(res <= 1e-10 and rho < 1 and sym <= 1e-12 and lmin >= -1e-10)
+    return dict(residual=res, closed_loop_rho=rho, asymmetry=sym, min_eig_rel=lmin, diff_from_slicot=diff, ok=ok)
+
+
+def dare_se_check(A, C, Q, R, S, E, P, P_ref):
+    """The filter DARE with cross term S and descriptor E (include/kfx/riccati.hpp):
+    E P E^T = A P A^T + Q - (A P C^T + S) W^{-1} (A P C^T + S)^T, W = C P C^T + R; closed loop E^{-1} (A - K_p C)."""
+    P = np.asarray(P)
+    W = C @ P @ C.T + R
+    X = A @ P @ C.T + S
+    K_p = np.linalg.solve(W, X.T).T
+    EPEt = E @ P @ E.T
+    res = np.linalg.norm(A @ P @ A.T - EPEt + Q - K_p @ X.T) / max(np.linalg.norm(EPEt), 1e-300)
+    rho = np.max(np.abs(np.linalg.eigvals(np.linalg.solve(E, A - K_p @ C))))
     sym = np.linalg.norm(P - P.T) / np.linalg.norm(P)
     lmin = np.min(np.linalg.eigvalsh(0.5 * (P + P.T))) / np.linalg.norm(P)
     diff = np.linalg.norm(P - P_ref) / np.linalg.norm(P_ref)
@@ -174,6 +194,41 @@ end
 """
 
 
+OCTAVE_SE_SCRIPT = r"""1;
+pkg load control
+d = '%(dir)s'; ns = [%(ns)s]; reps = %(reps)s;
+function M = rd(d, name, r, c)
+  f = fopen([d '/' name '.bin'], 'r'); M = fread(f, [r c], 'double'); fclose(f);
+end
+for i = 1:numel(ns)
+  n = ns(i); m = n / 2; p = sprintf('dare_se_%%d_', n);
+  A = rd(d, [p 'A'], n, n); C = rd(d, [p 'C'], m, n); Q = rd(d, [p 'Q'], n, n); R = rd(d, [p 'R'], m, m);
+  S = rd(d, [p 'S'], n, m); E = rd(d, [p 'E'], n, n);
+  t = zeros(1, reps(i));
+  for j = 1:reps(i)
+    t0 = cputime(); X = dare(A', C', Q, R, S, E'); t(j) = cputime() - t0;
+  end
+  f = fopen([d '/' p 'X_octave.bin'], 'w'); fwrite(f, X, 'double'); fclose(f);
+  f = fopen([d '/' p 'octave_times.txt'], 'w'); fprintf(f, '%%.6g\n', t); fclose(f);
+end
+"""
+
+
+def run_octave(data, template, ns, reps, last_times_file):
+    """Runs an Octave timing script; False when octave-cli is missing or failed."""
+    if not ns or shutil_which("octave-cli") is None:
+        return False
+    script = template % dict(dir=data, ns=" ".join(map(str, ns)), reps="[" + " ".join(str(r) for r in reps) + "]")
+    script_path = os.path.join(data, "octave_" + os.path.basename(last_times_file) + ".m")
+    with open(script_path, "w") as f:
+        f.write(script)
+    r = subprocess.run(["octave-cli", "--quiet", "--no-window-system", script_path], capture_output=True, text=True)
+    if r.returncode != 0 and not os.path.exists(os.path.join(data, last_times_file)):
+        log("octave failed:", r.stderr[-2000:])
+        return False
+    return True
+
+
 def octave_version():
     try:
         r = subprocess.run(["octave-cli", "--eval", "disp(version); pkg load control; "
@@ -191,15 +246,16 @@ def main():
     ap.add_argument("--driver", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--quick", action="store_true", help="small sizes only (a smoke test of the harness)")
-    ap.add_argument("--only", choices=["dare", "lyapunov", "kf"], action="append",
+    ap.add_argument("--only", choices=["dare", "dare_se", "lyapunov", "kf"], action="append",
                     help="run only these sections (repeatable; default: all)")
     args = ap.parse_args()
-    dare_n, lyap_n, kf_n = DARE_N, LYAP_N, KF_N
+    dare_n, dare_se_n, lyap_n, kf_n = DARE_N, DARE_SE_N, LYAP_N, KF_N
     if args.quick:
-        dare_n, lyap_n, kf_n = [10, 50], [10, 50], [4, 50]
+        dare_n, dare_se_n, lyap_n, kf_n = [10, 50], [50], [10, 50], [4, 50]
     if args.only:
-        dare_n, lyap_n, kf_n = (ns if name in args.only else [] for name, ns in
-                                (("dare", dare_n), ("lyapunov", lyap_n), ("kf", kf_n)))
+        dare_n, dare_se_n, lyap_n, kf_n = (ns if name in args.only else [] for name, ns in
+                                           (("dare", dare_n), ("dare_se", dare_se_n), ("lyapunov", lyap_n),
+                                            ("kf", kf_n)))
     out = os.path.abspath(args.out)
     data = os.path.join(out, "data")
     os.makedirs(data, exist_ok=True)
@@ -215,7 +271,7 @@ def main():
                       octave=octave_version(), filterpy=have_filterpy()),
         timing="process CPU seconds, best of the repetitions; OPENBLAS_NUM_THREADS=1",
         blas=BLAS,
-        dare=[], lyapunov=[], kf=[])
+        dare=[], dare_se=[], lyapunov=[], kf=[])
 
     log("DGEMM rate ...")
     result["dgemm"] = run_driver(args.driver, "dgemm", 7)
@@ -268,6 +324,53 @@ def main():
             checks["octave"] = dare_check(A, C, Q, R, X_oc, X_sl)
         row["checks"] = checks
         result["dare"].append(row)
+
+    # ---- DARE with cross term S and descriptor E -----------------------------------------------
+    for n in dare_se_n:
+        rng = np.random.default_rng(50240 + n)
+        m = n // 2
+        A = scaled(rng, n, 0.95)
+        C = rng.standard_normal((m, n))
+        J = spd(rng, n + m)  # joint covariance [[Q, S], [S^T, R]] > 0
+        Q, S, R = J[:n, :n], J[:n, n:], J[n:, n:]
+        E = np.eye(n) + 0.3 * rng.standard_normal((n, n)) / np.sqrt(n)
+        p = f"dare_se_{n}_"
+        for name, M in zip("ACQRSE", (A, C, Q, R, S, E)):
+            save(data, p + name, M)
+            save_bin(data, p + name, M)
+    octave_se_ok = run_octave(data, OCTAVE_SE_SCRIPT, dare_se_n, [dare_reps(n) for n in dare_se_n],
+                              f"dare_se_{dare_se_n[-1]}_octave_times.txt" if dare_se_n else "")
+    for n in dare_se_n:
+        log(f"DARE with S and E, n = {n} ...")
+        m, reps, p = n // 2, dare_reps(n), f"dare_se_{n}_"
+        A, C, Q, R, S, E = (load(data, p + x) for x in "ACQRSE")
+        c = run_driver(args.driver, "dare_se", data, n, reps)
+        X_sg = load(data, p + "X_sg02ad")
+        # SciPy's default balancing of the pencil with e fails on some well-posed problems ("eigenvalues too
+        # close to the unit circle", SciPy 1.10): then it is timed with balanced=False, and the table says so.
+        scipy_note = ""
+        try:
+            sla.solve_discrete_are(A.T, C.T, Q, R, e=E.T, s=S)
+            balanced = True
+        except np.linalg.LinAlgError as e:
+            scipy_note, balanced = f"default (balanced=True) failed: {e}; timed with balanced=False", False
+        t_sp, X_sp = best_cpu(lambda: sla.solve_discrete_are(A.T, C.T, Q, R, e=E.T, s=S, balanced=balanced), reps)
+        row = dict(n=n, m=m, reps=reps, kfx=c["kfx"], sg02ad=c["sg02ad"], sb02od=c["sb02od"], scipy=t_sp,
+                   scipy_note=scipy_note,
+                   kfx_info=dict(status=c["kfx_status"], method=c["kfx_method"], fell_back=c["kfx_fell_back"],
+                                 doubling_steps=c["kfx_steps"], refinement_steps=c["kfx_refine"],
+                                 lyapunov_certified=c["kfx_lyapunov_certified"]),
+                   sg02ad_info=c["sg02ad_info"], sb02od_info=c["sb02od_info"],
+                   ratio_sg02ad_paired_median=float(np.median(c["paired_ratio_sg02ad"])),
+                   ratio_sb02od_paired_median=float(np.median(c["paired_ratio_sb02od"])))
+        chk = lambda X: dare_se_check(A, C, Q, R, S, E, X, X_sg)  # noqa: E731
+        checks = dict(kfx=chk(load(data, p + "X_kfx")), sg02ad=chk(X_sg), sb02od=chk(load(data, p + "X_sb02od")),
+                      scipy=chk(X_sp))
+        if octave_se_ok:
+            row["octave"] = [float(v) for v in open(os.path.join(data, p + "octave_times.txt")).read().split()]
+            checks["octave"] = chk(np.fromfile(os.path.join(data, p + "X_octave.bin"), dtype="<f8").reshape(n, n).T)
+        row["checks"] = checks
+        result["dare_se"].append(row)
 
     # ---- Lyapunov ---------------------------------------------------------------------------
     for n in lyap_n:
@@ -364,7 +467,7 @@ def table(r):
              f"{r['machine']['loadavg_end'][0]:.1f} at the end; one BLAS thread. "
              f"Measured single-thread DGEMM (n = 1000): **{dg:.1f} GFLOP/s** from C++ (Eigen -> OpenBLAS), "
              f"{r['dgemm']['numpy_gflops']:.1f} GFLOP/s from numpy. Python {v['python']}, numpy {v['numpy']}, "
-             f"SciPy {v['scipy']}, Octave {v['octave']}, FilterPy {'yes' if v['filterpy'] else 'not installed'}. "
+             f"SciPy {v['scipy']}, Octave {v['octave'] or 'not installed'}, FilterPy {'yes' if v['filterpy'] else 'not installed'}. "
              f"Times: process CPU time, best of the repetitions; ratios = peer time / kfx time "
              f"(> 1: kfx faster). Whole run: {r['wall_seconds'] / 60:.1f} min.\n")
     if r.get("blas"):
@@ -382,12 +485,40 @@ def table(r):
         oc = min(d["octave"]) if "octave" in d else float("nan")
         ch = d["checks"]
         allok = all(c["ok"] for c in ch.values())
-        L.append(f"| {d['n']} | {fmt_t(k)} | {fmt_t(s)} | {fmt_t(sp)} | {fmt_t(oc) if oc == oc else '-'} | "
+        L.append(f"| {d['n']} | {fmt_t(k)} | {fmt_t(s)} | {fmt_t(sp)} | {fmt_t(oc) if oc == oc else 'not installed'} | "
                  f"**{d['ratio_sb02od_paired_median']:.2f}x** | {sp / k:.1f}x | "
-                 f"{(oc / k) if oc == oc else float('nan'):.1f}x | {ch['kfx']['residual']:.1e} | "
+                 f"{f'{oc / k:.1f}x' if oc == oc else 'not installed'} | {ch['kfx']['residual']:.1e} | "
                  f"{ch['sb02od']['residual']:.1e} | {ch['scipy']['residual']:.1e} | "
-                 f"{ch['octave']['residual'] if 'octave' in ch else float('nan'):.1e} | "
+                 f"{format(ch['octave']['residual'], '.1e') if 'octave' in ch else 'not installed'} | "
                  f"{ch['kfx']['diff_from_slicot']:.1e} | {'all ok' if allok else ', '.join(f'{a}: {ok(c)}' for a, c in ch.items())} |")
+    if r.get("dare_se"):
+        L.append("\n### DARE with cross term S and descriptor E, m = n/2\n")
+        L.append("E P Eᵀ = A P Aᵀ + Q - (A P Cᵀ + S) W⁻¹ (A P Cᵀ + S)ᵀ, W = C P Cᵀ + R (include/kfx/riccati.hpp). "
+                 "SG02AD: SLICOT's solver for E and S (as kfx's Schur method calls it); SB02OD: SLICOT's solver "
+                 "without E, called with L = E⁻¹ S on E⁻¹ A, E⁻¹ Q E⁻ᵀ (the LU solves timed with it). Residuals "
+                 "relative to |E P Eᵀ|; checks: residual <= 1e-10, rho(E⁻¹ (A - K_p C)) < 1, symmetric PSD.\n")
+        L.append("| n | kfx | SG02AD | SB02OD (E⁻¹, L = S) | SciPy | Octave | SG02AD / kfx (paired median) | "
+                 "SB02OD / kfx (paired median) | SciPy / kfx | Octave / kfx | kfx method | kfx residual | SG02AD res. | "
+                 "SB02OD res. | SciPy res. | Octave res. | kfx vs SG02AD X | checks |")
+        L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        notes = [f"n = {d['n']}: SciPy's {d['scipy_note']}" for d in r["dare_se"] if d["scipy_note"]]
+        for d in r["dare_se"]:
+            k, sg, sb, sp = min(d["kfx"]), min(d["sg02ad"]), min(d["sb02od"]), min(d["scipy"])
+            ch = d["checks"]
+            allok = all(c["ok"] for c in ch.values())
+            has_oc = "octave" in d
+            oc = min(d["octave"]) if has_oc else None
+            L.append(f"| {d['n']} | {fmt_t(k)} | {fmt_t(sg)} | {fmt_t(sb)} | "
+                     f"{fmt_t(sp)}{' (balanced=False: the default fails)' if d['scipy_note'] else ''} | "
+                     f"{fmt_t(oc) if has_oc else 'not installed'} | **{d['ratio_sg02ad_paired_median']:.2f}x** | "
+                     f"**{d['ratio_sb02od_paired_median']:.2f}x** | {sp / k:.1f}x | "
+                     f"{f'{oc / k:.1f}x' if has_oc else 'not installed'} | {d['kfx_info']['method']} | "
+                     f"{ch['kfx']['residual']:.1e} | {ch['sg02ad']['residual']:.1e} | {ch['sb02od']['residual']:.1e} | "
+                     f"{ch['scipy']['residual']:.1e} | "
+                     f"{format(ch['octave']['residual'], '.1e') if has_oc else 'not installed'} | "
+                     f"{ch['kfx']['diff_from_slicot']:.1e} | "
+                     f"{'all ok' if allok else ', '.join(f'{a}: {ok(c)}' for a, c in ch.items())} |")
+        L.extend("\n" + note for note in notes)
     L.append("\n### Discrete Lyapunov X = A X Aᵀ + Q\n")
     L.append("| n | kfx | SB03MD | SciPy | SB03MD / kfx (paired median) | SciPy / kfx | kfx residual | "
              "SB03MD res. | SciPy res. | kfx vs SB03MD X | checks |")

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "kfx/model.hpp"
+#include "kfx/riccati.hpp"
 #include "kfx/summary.hpp"
 
 namespace kfx {
@@ -96,18 +97,9 @@ RiccatiFlow KalmanBucyFlow(const ContinuousModel& model, double h);
 /// P_c(T): the Kalman-Bucy error covariance at time T >= 0 (P_c(0) = P0).
 Eigen::MatrixXd KalmanBucyCovariance(const ContinuousModel& model, double T);
 
-/// Continuous algebraic Riccati equation of the filter, by SLICOT SB02OD (DICO = 'C') on the dual
-/// problem (A^T, C^T, B Q B^T, R).
-struct CareSolution {
-  Eigen::MatrixXd P;                  ///< stabilizing solution (empty unless SB02OD succeeded)
-  double closed_loop_max_real = 0.0;  ///< max Re lambda(A - P C^T R^{-1} C)
-  int refinement_steps = 0;           ///< accepted Newton (Kleinman) steps, at most two (Lyapunov by SB03MD)
-  /// kConverged (closed loop stable), kNotStabilizing (SB02OD found no stable deflating subspace of
-  /// dimension n, or the closed loop is not stable), kFailed (another SB02OD failure); method "schur";
-  /// relative_residual = |res|_F / (2 |A P|_F + |B Q B^T|_F + |P C^T R^{-1} C P|_F),
-  /// res = A P + P A^T + B Q B^T - P C^T R^{-1} C P.
-  Summary summary;
-};
+/// Continuous algebraic Riccati equation of the filter, A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0:
+/// SolveFilterCare(A, C, B Q B^T, R, S = none, E = none) of include/kfx/riccati.hpp (SLICOT SB02OD,
+/// DICO = 'C', on the dual problem (A^T, C^T, B Q B^T, R); CareSolution there).
 /// @throws kfx::Error on an invalid model. Numerical outcomes are in summary.
 CareSolution SolveFilterCare(const ContinuousModel& model);
 

@@ -247,4 +247,46 @@ SteinSolution SolveDiscreteSylvester(const Eigen::Ref<const Eigen::MatrixXd>& A,
                                      const Eigen::Ref<const Eigen::MatrixXd>& B,
                                      const Eigen::Ref<const Eigen::MatrixXd>& C);
 
+// ------------------------------------------------------------------------------------------------
+// The filter CARE (continuous time; paper 003's Kalman-Bucy filter and its steady state).
+
+/// Result of SolveFilterCare: the stabilizing solution of the filter CARE, its gain and how the solve ended.
+struct CareSolution {
+  Eigen::MatrixXd P;  ///< n x n stabilizing solution (empty unless SB02OD succeeded)
+  /// n x m Kalman-Bucy gain K = (E P C^T + S) R^{-1} (K = P C^T R^{-1} without S and E): the steady
+  /// filter E dx^ = A x^ dt + K (dy - C x^ dt). python-control's care(A^T, C^T, Q, R, S, E^T) returns
+  /// its G = K^T; MATLAB/Octave's kalman() calls K "L".
+  Eigen::MatrixXd gain;
+  double closed_loop_max_real = 0.0;  ///< max Re lambda(E^{-1} (A - K C)) (DGEEV)
+  int refinement_steps = 0;           ///< accepted Newton (Kleinman) steps, at most two (Lyapunov by SB03MD)
+  /// kConverged (closed loop stable and relative residual <= 1e-8), kNotStabilizing (SB02OD found no
+  /// stable deflating subspace of dimension n or its U11 is singular, or the closed loop is not stable), kFailed
+  /// (another SB02OD failure, a non-finite result, or relative residual > 1e-8); method "schur"; relative_residual =
+  /// |res|_F / (2 |A P E^T|_F + |Q|_F + |K R K^T|_F), res = A P E^T + E P A^T + Q - (E P C^T + S) R^{-1} (C P E^T +
+  /// S^T).
+  Summary summary;
+};
+
+/// The filter CARE with a cross term S and a descriptor E:
+///   A P E^T + E P A^T + Q - (E P C^T + S) R^{-1} (C P E^T + S^T) = 0,
+/// (S = 0, E = I: A P + P A^T + Q - P C^T R^{-1} C P = 0), the steady state of the Kalman-Bucy filter
+/// for E dx = A x dt + dw, dy = C x dt + dv with incremental covariances Q, R and cross covariance
+/// S = cov(dw, dv) / dt. It is the dual of
+///   scipy.linalg.solve_continuous_are(a = A^T, b = C^T, q = Q, r = R, e = E^T, s = S)
+///   control.care(A^T, C^T, Q, R, S, E^T)   (python-control; its gain G is K^T).
+/// Without E: SLICOT SB02OD (DICO = 'C', generalized Schur on the extended pencil, L = S) on
+/// (A^T, C^T, Q, R, S). With E: the same on A~ = E^{-1} A, Q~ = E^{-1} Q E^{-T}, S~ = E^{-1} S (same P;
+/// E must be nonsingular). Then at most two Newton (Kleinman) steps, each a continuous Lyapunov equation
+/// in the closed loop (SB03MD) kept only if it lowers the residual. The solution is accepted when the
+/// closed loop E^{-1} (A - K C) has all eigenvalues in the open left half plane (DGEEV) and the relative
+/// residual is <= 1e-8. P is PSD when [[Q, S], [S^T, R]] is PSD and P stabilizing.
+/// @param A n x n, @param C m x n, @param Q n x n symmetric PSD, @param R m x m symmetric PD,
+/// @param S n x m, or 0 x 0 for none; @param E n x n nonsingular, or 0 x 0 for the identity.
+/// @throws kfx::Error on invalid input, naming the argument: shapes, NaN/Inf, symmetry, Q not PSD, R not
+///         PD, the joint covariance [[Q, S], [S^T, R]] not PSD (named "S"), E singular (rcond_1(E) < n eps).
+/// Numerical outcomes (no stabilizing solution: not detectable or not stabilizable) are in summary.
+CareSolution SolveFilterCare(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eigen::Ref<const Eigen::MatrixXd>& C,
+                             const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::Ref<const Eigen::MatrixXd>& R,
+                             const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::Ref<const Eigen::MatrixXd>& E);
+
 }  // namespace kfx

@@ -28,9 +28,10 @@ class BlockDiagonalSteadyState:
     summary: Summary
 
 class CareSolution:
-    """C++ (include/kfx/continuous.hpp, CareSolution):"""
+    """C++ (include/kfx/riccati.hpp, CareSolution):"""
     P: numpy.ndarray
     closed_loop_max_real: float
+    gain: numpy.ndarray
     refinement_steps: int
     summary: Summary
 
@@ -554,7 +555,10 @@ def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray, method: str = 'a
 
 def solve_discrete_sylvester(A: numpy.ndarray, B: numpy.ndarray, C: numpy.ndarray) -> SteinSolution: """Stein / discrete Sylvester equation A X B - X + C = 0 (python-control dlyap(A, Q, C) is B = Q.T) by SLICOT SB04QD. Returns a SteinSolution; a singular equation is .summary.termination 'singular'."""
 
-def solve_filter_care(model: ContinuousModel) -> CareSolution: """CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}."""
+@typing.overload
+def solve_filter_care(model: ContinuousModel) -> CareSolution: ...
+@typing.overload
+def solve_filter_care(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None) -> CareSolution: ...
 
 def solve_filter_dare(A: numpy.ndarray, C: numpy.ndarray, Q: numpy.ndarray, R: numpy.ndarray, method: str = 'auto', max_iterations: int = 60, tolerance: float = 1e-14, refine: bool = True, exact_eigenvalues: bool = False, S: Optional[numpy.ndarray] = None, E: Optional[numpy.ndarray] = None, progress: object = None) -> DareSolution: """Filter DARE P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T (prediction form; scipy's solve_discrete_are(A.T, C.T, Q, R) gives the same P). Numerical failures are in .summary.termination, never raised. Stability is proven by a Lyapunov certificate whose bounds the summary reports; exact_eigenvalues=True reports rho(A - K_p C) and lambda_min(P) from the eigenvalues instead. With a cross term S (n, m) and/or a descriptor E (n, n): E P E^T = A P A^T + Q - (A P C^T + S) W^{-1} (A P C^T + S)^T, W = C P C^T + R, the dual of scipy's solve_discrete_are(A.T, C.T, Q, R, e=E.T, s=S) and python-control's dare(A.T, C.T, Q, R, S, E.T); predictor_gain K_p = (A P C^T + S) W^{-1} (python-control's G is K_p.T), filter_gain K_f = P C^T W^{-1}. method 'doubling': E^{-1} and the decorrelation A - S R^{-1} C, Q - S R^{-1} S^T, then the standard solver; 'schur': SLICOT SG02AD; 'auto': doubling, SG02AD if E is ill-conditioned or doubling fails. [[Q, S], [S^T, R]] must be PSD, E nonsingular. progress: None or progress(step, max_iterations) over the doubling steps (not the Schur method), at most every 0.05 s; the GIL is released, and Ctrl-C stops the doubling with KeyboardInterrupt."""
 

@@ -55,11 +55,28 @@ void BindContinuous(py::module_& m) {
         "P_c(T) of the Kalman-Bucy filter (Hamiltonian exponential and doubling).");
   py::class_<CareSolution>(m, "CareSolution")
       .def_readonly("P", &CareSolution::P)
+      .def_readonly("gain", &CareSolution::gain, "Kalman-Bucy gain K = (E P C^T + S) R^{-1} (n, m)")
       .def_readonly("closed_loop_max_real", &CareSolution::closed_loop_max_real)
       .def_readonly("refinement_steps", &CareSolution::refinement_steps)
       .def_readonly("summary", &CareSolution::summary);
-  m.def("solve_filter_care", &SolveFilterCare, py::arg("model"), py::call_guard<py::gil_scoped_release>(),
-        "CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}.");
+  m.def("solve_filter_care", py::overload_cast<const ContinuousModel&>(&SolveFilterCare), py::arg("model"),
+        py::call_guard<py::gil_scoped_release>(),
+        "CARE A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0 (SLICOT SB02OD); Kalman-Bucy gain K = P C^T R^{-1}. "
+        "Or, from matrices, the filter CARE with a cross term S and a descriptor E.");
+  m.def(
+      "solve_filter_care",
+      [](const Eigen::MatrixXd& A, const Eigen::MatrixXd& C, const Eigen::MatrixXd& Q, const Eigen::MatrixXd& R,
+         const std::optional<Eigen::MatrixXd>& S, const std::optional<Eigen::MatrixXd>& E) {
+        const Eigen::MatrixXd none(0, 0);
+        py::gil_scoped_release release;
+        return SolveFilterCare(A, C, Q, R, S ? *S : none, E ? *E : none);
+      },
+      py::arg("A"), py::arg("C"), py::arg("Q"), py::arg("R"), py::arg("S") = py::none(), py::arg("E") = py::none(),
+      "Filter CARE A P E^T + E P A^T + Q - (E P C^T + S) R^{-1} (C P E^T + S^T) = 0 (S = None: no cross term, "
+      "E = None: identity), the dual of scipy's solve_continuous_are(A.T, C.T, Q, R, e=E.T, s=S) and "
+      "python-control's care(A.T, C.T, Q, R, S, E.T) (its G is gain.T); gain K = (E P C^T + S) R^{-1}. SLICOT "
+      "SB02OD with L = S (after E^{-1} when E is given). [[Q, S], [S^T, R]] must be PSD, R PD, E nonsingular. "
+      "Numerical failures are in .summary.termination, never raised.");
   m.def(
       "simulate_continuous",
       [](const ContinuousModel& cm, double T, int N, std::uint64_t seed) {

@@ -19,27 +19,16 @@
 
 #include "kfx/error.hpp"
 #include "kfx/validation.hpp"
+#include "riccati/dare_internal.hpp"
 #include "riccati/riccati_internal.hpp"
 #include "riccati/slicot_generalized.hpp"
 
 namespace kfx {
+namespace detail {
 namespace {
 
-using detail::ConstRef;
 using Eigen::Index;
 using Eigen::MatrixXd;
-
-constexpr double kResidualAcceptance = 1e-8;  // as SolveFilterDare
-constexpr double kPsdTolerance = 1e-10;       // as SolveFilterDare
-/// kAuto transforms with E^{-1} only when rcond_1(E) is at least this (at most ~8 digits lost to E).
-constexpr double kTransformRcond = 1e-8;
-
-struct Problem {
-  Index n = 0, m = 0;
-  MatrixXd S, E;  ///< filled in: S = 0 (n x m) and E = I when not given
-  bool has_s = false, has_e = false;
-  double e_rcond = 1.0;
-};
 
 double Rcond1(const MatrixXd& E) {
   if (E.size() == 0) return 1.0;
@@ -47,9 +36,11 @@ double Rcond1(const MatrixXd& E) {
   return lu.rcond();
 }
 
-Problem Validate(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, const ConstRef& S,
-                 const ConstRef& E, bool require_psd) {
-  Problem p;
+}  // namespace
+
+GeneralProblem ValidateGeneralProblem(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R,
+                                      const ConstRef& S, const ConstRef& E, bool require_psd) {
+  GeneralProblem p;
   RequireSquare("A", A);
   RequireFinite("A", A);
   p.n = A.rows();
@@ -93,6 +84,20 @@ Problem Validate(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const 
   }
   return p;
 }
+
+}  // namespace detail
+
+namespace {
+
+using detail::ConstRef;
+using Problem = detail::GeneralProblem;
+using Eigen::Index;
+using Eigen::MatrixXd;
+
+constexpr double kResidualAcceptance = 1e-8;  // as SolveFilterDare
+constexpr double kPsdTolerance = 1e-10;       // as SolveFilterDare
+/// kAuto transforms with E^{-1} only when rcond_1(E) is at least this (at most ~8 digits lost to E).
+constexpr double kTransformRcond = 1e-8;
 
 /// Residual of the original equation at a symmetric P; also the gains (when W = C P C^T + R is PD).
 struct Original {
@@ -261,7 +266,7 @@ DareSolution SolveFilterDare(const Eigen::Ref<const Eigen::MatrixXd>& A, const E
                              const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::Ref<const Eigen::MatrixXd>& E,
                              const DareOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const Problem p = Validate(A, C, Q, R, S, E, /*require_psd=*/true);
+  const Problem p = detail::ValidateGeneralProblem(A, C, Q, R, S, E, /*require_psd=*/true);
   std::string why;
   if (!options.IsValid(&why)) throw Error("options: " + why);
   DareSolution sol;
@@ -300,7 +305,7 @@ double FilterDareResidual(const Eigen::Ref<const Eigen::MatrixXd>& A, const Eige
                           const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::Ref<const Eigen::MatrixXd>& R,
                           const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::Ref<const Eigen::MatrixXd>& E,
                           const Eigen::Ref<const Eigen::MatrixXd>& P) {
-  const Problem p = Validate(A, C, Q, R, S, E, /*require_psd=*/false);
+  const Problem p = detail::ValidateGeneralProblem(A, C, Q, R, S, E, /*require_psd=*/false);
   RequireShape("P", P, p.n, p.n);
   RequireSymmetric("P", P);
   if (p.n == 0) return 0.0;

@@ -31,4 +31,18 @@ struct DareDiagnosis {
 };
 DareDiagnosis DiagnoseDare(const ConstRef& A, const ConstRef& C, const ConstRef& Q);
 
+/// The validated cross-term / descriptor problem shared by the generalized filter DARE
+/// (dare_general.cpp) and the filter CARE (care.cpp).
+struct GeneralProblem {
+  Eigen::Index n = 0, m = 0;
+  Eigen::MatrixXd S, E;  ///< filled in: S = 0 (n x m) and E = I when not given
+  bool has_s = false, has_e = false;
+  double e_rcond = 1.0;  ///< rcond_1(E) (1 without E)
+};
+/// Checks A, C, Q, R, S (0 x 0: none), E (0 x 0: identity) as include/kfx/riccati.hpp states for the
+/// generalized SolveFilterDare; require_psd: also Q PSD, R PD and [[Q, S], [S^T, R]] PSD (named "S").
+/// @throws kfx::Error naming the argument (dare_general.cpp).
+GeneralProblem ValidateGeneralProblem(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R,
+                                      const ConstRef& S, const ConstRef& E, bool require_psd);
+
 }  // namespace kfx::detail

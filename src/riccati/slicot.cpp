@@ -47,7 +47,7 @@ const char* Sb02odInfoText(int info) {
 }  // namespace
 
 Sb02odResult SolveFilterRiccatiSb02od(TimeDomain domain, const ConstRef& A, const ConstRef& C, const ConstRef& Q,
-                                      const ConstRef& R) {
+                                      const ConstRef& R, const Eigen::MatrixXd* S) {
   Sb02odResult out;
   const int n = FortranInt(A.rows());
   const int m = FortranInt(C.rows());
@@ -56,7 +56,7 @@ Sb02odResult SolveFilterRiccatiSb02od(TimeDomain domain, const ConstRef& A, cons
   const int ld_m = std::max(1, m);
   const int ld_st = std::max(1, 2 * n + m);
   const int ld_u = std::max(1, 2 * n);
-  const int ld_l = 1;
+  const int ld_l = S ? ld_n : 1;
 
   const MatrixXd At = A.transpose();
   const MatrixXd Ct = C.transpose();
@@ -64,7 +64,7 @@ Sb02odResult SolveFilterRiccatiSb02od(TimeDomain domain, const ConstRef& A, cons
   std::vector<double> b = ColumnMajorCopy(Ct, ld_n);
   std::vector<double> q = ColumnMajorCopy(Q, ld_n);
   std::vector<double> r = ColumnMajorCopy(R, ld_m);
-  std::vector<double> l(1, 0.0);
+  std::vector<double> l = S ? ColumnMajorCopy(*S, ld_n) : std::vector<double>(1, 0.0);
   std::vector<double> x(static_cast<std::size_t>(ld_n) * std::max(1, n));
   const std::size_t two_n = static_cast<std::size_t>(std::max(1, 2 * n));
   std::vector<double> alfar(two_n), alfai(two_n), beta(two_n);
@@ -80,9 +80,10 @@ Sb02odResult SolveFilterRiccatiSb02od(TimeDomain domain, const ConstRef& A, cons
   const double tol = 0.0;  // SB02OD default (machine epsilon) for the pencil compression
   int info = 0;
   const char* dico = domain == TimeDomain::kDiscrete ? "D" : "C";
-  sb02od_(dico, "B", "N", "U", "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n, r.data(), &ld_m,
-          l.data(), &ld_l, &rcond, x.data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(), &ld_st, t.data(),
-          &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info, 1, 1, 1, 1, 1, 1);
+  sb02od_(dico, "B", "N", "U", S ? "N" : "Z", "S", &n, &m, &p, a.data(), &ld_n, b.data(), &ld_n, q.data(), &ld_n,
+          r.data(), &ld_m, l.data(), &ld_l, &rcond, x.data(), &ld_n, alfar.data(), alfai.data(), beta.data(), s.data(),
+          &ld_st, t.data(), &ld_st, u.data(), &ld_u, &tol, iwork.data(), dwork.data(), &ldwork, bwork.data(), &info, 1,
+          1, 1, 1, 1, 1);
   KFX_ASSERT(info >= 0);  // a negative info is an argument error: a bug here
   out.info = info;
   out.rcond = rcond;

@@ -12,10 +12,11 @@ enum class TimeDomain { kDiscrete, kContinuous };
 
 /// SLICOT SB02OD (generalized Schur / QZ method on the extended pencil, P. Van Dooren, SIAM J. Sci.
 /// Stat. Comput. 2 (1981) 121-135) with DICO = 'D' or 'C' on the filter's dual control problem
-/// (A^T, B = C^T, Q, R, L = 0): the stabilizing solution P of the filter DARE
-///   P = A P A^T + Q - A P C^T (C P C^T + R)^{-1} C P A^T      (kDiscrete)
+/// (A^T, B = C^T, Q, R, L = S): the stabilizing solution P of the filter DARE
+///   P = A P A^T + Q - (A P C^T + S) (C P C^T + R)^{-1} (A P C^T + S)^T      (kDiscrete)
 /// or CARE
-///   A P + P A^T + Q - P C^T R^{-1} C P = 0                   (kContinuous).
+///   A P + P A^T + Q - (P C^T + S) R^{-1} (C P + S^T) = 0                   (kContinuous),
+/// S (n x m) the cross term; nullptr for none (JOBL = 'Z').
 struct Sb02odResult {
   int info = 0;         ///< SB02OD's info: 0 success, 1..6 the failures of Sb02odInfoText
   Eigen::MatrixXd P;    ///< n x n as returned (not symmetrized); empty unless info == 0
@@ -23,7 +24,7 @@ struct Sb02odResult {
   std::string message;  ///< "SB02OD: rcond(U11) = ..." or "SB02OD failed (info i): <reason>"
 };
 Sb02odResult SolveFilterRiccatiSb02od(TimeDomain domain, const ConstRef& A, const ConstRef& C, const ConstRef& Q,
-                                      const ConstRef& R);
+                                      const ConstRef& R, const Eigen::MatrixXd* S = nullptr);
 
 /// SLICOT SB03MD (Bartels-Stewart / Barraud on the real Schur form of A) with TRANA = 'T' on
 ///   A X A^T - X + Q = 0  (kDiscrete, the Stein equation X = A X A^T + Q)   or

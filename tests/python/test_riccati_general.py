@@ -93,3 +93,62 @@ def test_bad_input_names_the_argument():
         kfx.solve_generalized_discrete_lyapunov(A, np.zeros((3, 3)), Q)
     with pytest.raises(kfx.Error, match="C"):
         kfx.solve_discrete_sylvester(A, A, np.ones((2, 2)))
+
+
+# ---- The filter CARE with a cross term S and a descriptor E (kfx.continuous.solve_filter_care) ------------
+
+def _care_system(n, m, seed):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n)) / np.sqrt(n) - 0.3 * np.eye(n)  # eigenvalues on both sides of the axis
+    C = rng.standard_normal((m, n))
+    G = rng.standard_normal((n + m, n + m))
+    J = G @ G.T / (n + m) + 0.2 * np.eye(n + m)
+    E = np.eye(n) + 0.3 * rng.standard_normal((n, n)) / np.sqrt(n)
+    return A, C, J[:n, :n], J[n:, n:], J[:n, n:], E
+
+
+def _care_residual(A, C, Q, R, S, E, P):
+    X = E @ P @ C.T + S
+    res = A @ P @ E.T + E @ P @ A.T + Q - X @ np.linalg.solve(R, X.T)
+    return np.linalg.norm(res) / np.linalg.norm(A @ P @ E.T)
+
+
+@pytest.mark.parametrize("n,m", [(2, 1), (6, 3), (20, 5)])
+def test_care_against_scipy_solve_continuous_are_with_s_and_e(n, m):
+    scipy_linalg = pytest.importorskip("scipy.linalg", reason="SciPy not installed (python3-scipy is a bench-peers "
+                                                              "dependency only)")
+    A, C, Q, R, S, E = _care_system(n, m, 200 + n)
+    # SciPy: a^T X e + e^T X a - (e^T X b + s) r^{-1} (b^T X e + s^T) + q = 0, the dual of ours.
+    for e in (None, E):
+        X = scipy_linalg.solve_continuous_are(A.T, C.T, Q, R, e=None if e is None else e.T, s=S)
+        c = kfx.continuous.solve_filter_care(A, C, Q, R, S=S, E=e)
+        assert c.summary.ok, c.summary.brief_report()
+        assert np.linalg.norm(c.P - X) <= 1e-9 * np.linalg.norm(X)
+        Ee = np.eye(n) if e is None else e
+        assert _care_residual(A, C, Q, R, S, Ee, c.P) < 1e-12
+        assert np.allclose(c.gain @ R, Ee @ c.P @ C.T + S, rtol=1e-10, atol=1e-12)
+        assert max(np.linalg.eigvals(np.linalg.solve(Ee, A - c.gain @ C)).real) < 0
+        assert min(np.linalg.eigvalsh(c.P)) > -1e-12 * np.linalg.norm(c.P)
+
+
+def test_care_matrix_form_equals_the_model_form():
+    A, C, Q, R, _, _ = _care_system(4, 2, 11)
+    model = kfx.continuous.ContinuousModel(A=A, B=np.eye(4), C=C, Q=Q, R=R, m0=np.zeros(4), P0=np.eye(4))
+    a = kfx.continuous.solve_filter_care(model)
+    b = kfx.continuous.solve_filter_care(A, C, Q, R)
+    assert a.summary.ok and b.summary.ok
+    assert np.linalg.norm(a.P - b.P) <= 1e-12 * np.linalg.norm(b.P)
+
+
+def test_care_bad_input_names_the_argument():
+    A, C, Q, R, S, E = _care_system(3, 2, 9)
+    with pytest.raises(kfx.Error, match="S"):
+        kfx.continuous.solve_filter_care(A, C, Q, R, S=np.ones((2, 2)))
+    with pytest.raises(kfx.Error, match=r"\[\[Q, S\], \[S\^T, R\]\]"):
+        kfx.continuous.solve_filter_care(A, C, Q, R, S=100 * S)
+    with pytest.raises(kfx.Error, match="R"):
+        kfx.continuous.solve_filter_care(A, C, Q, -R, S=S)
+    with pytest.raises(kfx.Error, match="E"):
+        kfx.continuous.solve_filter_care(A, C, Q, R, S=S, E=np.zeros((3, 3)))
+    with pytest.raises(kfx.Error, match="A"):
+        kfx.continuous.solve_filter_care(np.full((3, 3), np.nan), C, Q, R)

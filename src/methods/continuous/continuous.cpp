@@ -4,7 +4,6 @@
 #include "kfx/continuous.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -13,7 +12,6 @@
 #include "kfx/kalman_filter.hpp"
 #include "kfx/simulation.hpp"
 #include "kfx/validation.hpp"
-#include "riccati/slicot.hpp"
 
 namespace kfx {
 
@@ -243,59 +241,12 @@ MatrixXd KalmanBucyCovariance(const ContinuousModel& model, double T) {
 }
 
 // ------------------------------------------------------------------------------------------------
-// CARE by SLICOT SB02OD.
+// CARE: the riccati layer's SolveFilterCare on (A, C, B Q B^T, R).
 
 CareSolution SolveFilterCare(const ContinuousModel& model) {
-  const auto start = std::chrono::steady_clock::now();
   ValidateContinuousModel(model);
-  CareSolution out;
-  Summary& sum = out.summary;
-  sum.computation = "filter CARE";
-  sum.method = "schur";
-  const Index m = model.output_dim();
-  const MatrixXd G = model.ProcessNoise();
-  detail::Sb02odResult sb =
-      detail::SolveFilterRiccatiSb02od(detail::TimeDomain::kContinuous, model.A, model.C, G, model.R);
-  if (sb.info != 0) {
-    sum.termination = sb.info == 5 ? Termination::kNotStabilizing : Termination::kFailed;
-    sum.message = sb.message + (sb.info == 5 ? " (not detectable or not stabilizable)" : "");
-    sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return out;
-  }
-  out.P = std::move(sb.P);
-  Symmetrize(out.P);
-  const MatrixXd S = model.C.transpose() * model.R.llt().solve(model.C);
-  auto residual = [&](const MatrixXd& P) -> MatrixXd { return model.A * P + P * model.A.transpose() + G - P * S * P; };
-  auto scale = [&](const MatrixXd& P) {
-    return std::max(2.0 * (model.A * P).norm() + G.norm() + (P * S * P).norm(), 1e-300);
-  };
-  // Newton (Kleinman) refinement: (A - P S) dP + dP (A - P S)^T + res(P) = 0, a continuous Lyapunov
-  // equation (SLICOT SB03MD); a step is kept only if it lowers the residual.
-  for (int it = 0; it < 2; ++it) {
-    const MatrixXd res = residual(out.P);
-    const MatrixXd acl = model.A - out.P * S;
-    const detail::Sb03mdResult dP = detail::SolveLyapunovSb03md(detail::TimeDomain::kContinuous, acl, res);
-    if (dP.info != 0 || !(dP.scale > 0.0)) break;
-    MatrixXd P1 = out.P + dP.X;
-    Symmetrize(P1);
-    if (residual(P1).norm() >= res.norm()) break;
-    out.P = P1;
-    ++out.refinement_steps;
-  }
-  const MatrixXd K = out.P * model.C.transpose() * model.R.llt().solve(MatrixXd::Identity(m, m));
-  sum.relative_residual = residual(out.P).norm() / scale(out.P);
-  const MatrixXd Acl = model.A - K * model.C;
-  out.closed_loop_max_real = Acl.eigenvalues().real().maxCoeff();
-  sum.message = sb.message;
-  if (out.closed_loop_max_real < 0.0) {
-    sum.termination = Termination::kConverged;
-  } else {
-    sum.termination = Termination::kNotStabilizing;
-    sum.message += "; closed loop not stable (max Re lambda(A - K C) = " + FormatNumber(out.closed_loop_max_real) + ")";
-  }
-  sum.SetDetail("refinement steps", std::to_string(out.refinement_steps));
-  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return out;
+  const MatrixXd none(0, 0);
+  return SolveFilterCare(model.A, model.C, model.ProcessNoise(), model.R, none, none);
 }
 
 // ------------------------------------------------------------------------------------------------
