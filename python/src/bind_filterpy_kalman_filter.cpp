@@ -177,44 +177,59 @@ void BindFilterPyKalmanFilter(py::module_& m) {
           "update_correlated", [](KF& f, py::handle z, py::handle R, py::handle H) { f.Update(z, R, H, true); },
           py::arg("z"), py::arg("R") = py::none(), py::arg("H") = py::none(),
           "Update when the measurement noise is correlated with the prior error (cross-covariance M): "
-          "S = H P H^T + H M + M^T H^T + R, K = (P H^T + M) S^-1.")
-      .def("update_steadystate", &KF::UpdateSteadyState, py::arg("z"), "x = x + K (z - H x) with the stored K; P kept.")
+          "S = H P H^T + H M + M^T H^T + R, K = (P H^T + M) S^-1. Raises kfx.Error as update, or if M does not have "
+          "a column per row of H; kfx.NumericalError if S is not positive definite.")
+      .def("update_steadystate", &KF::UpdateSteadyState, py::arg("z"),
+           "x = x + K (z - H x) with the stored K; P kept. Raises kfx.Error if z is not a measurement of length "
+           "dim_z or has an infinite entry.")
       .def("predict_steadystate", &KF::PredictSteadyState, py::arg("u") = 0, py::arg("B") = py::none(),
-           "x = F x + B u; P kept.")
+           "x = F x + B u; P kept. Raises kfx.Error if B is not (dim_x, k) or u does not have k entries (a number "
+           "needs k = 1), or if either is not a real numeric array.")
       .def("update_sequential", &KF::UpdateSequential, py::arg("start"), py::arg("z_i"), py::arg("R_i") = py::none(),
            py::arg("H_i") = py::none(),
            "Update with rows start .. start + len(z_i) of the measurement only (R_i, H_i default to those rows of "
-           "R, H); fills those rows of y, K, z.")
+           "R, H); fills those rows of y, K, z. Raises kfx.Error if z_i is not a number or a vector, if the rows run "
+           "past dim_z, or if R_i, H_i do not have len(z_i) rows; kfx.NumericalError if S is not positive "
+           "definite.")
       .def("batch_filter", &KF::BatchFilter, py::arg("zs"), py::arg("Fs") = py::none(), py::arg("Qs") = py::none(),
            py::arg("Hs") = py::none(), py::arg("Rs") = py::none(), py::arg("Bs") = py::none(),
            py::arg("us") = py::none(), py::arg("update_first") = false, py::arg("saver") = py::none(),
            "Filters every zs[i] in one call (predict then update, or update then predict with update_first): "
            "returns (means, covariances, means_p, covariances_p), means (T, dim_x, 1) for a column x, (T, dim_x) "
            "for a 1-D x; the filter ends in the last state. Per-step Fs, Qs, Hs, Rs, Bs, us; saver.save() after "
-           "each step. Without a saver the loop runs in C++ with the GIL released.")
+           "each step. Without a saver the loop runs in C++ with the GIL released. Raises kfx.Error if zs is not "
+           "(T, dim_z) / (T, dim_z, 1) or a sequence of measurements, if zs has an infinite entry, if a per-step "
+           "list does not have one item per step or an item has the wrong shape; kfx.NumericalError (naming the "
+           "step) if S is not positive definite.")
       .def("rts_smoother", &KF::RtsSmoother, py::arg("Xs"), py::arg("Ps"), py::arg("Fs") = py::none(),
            py::arg("Qs") = py::none(),
            "Rauch-Tung-Striebel smoother over filtered means Xs and covariances Ps (Fs[k+1], Qs[k+1] take step k "
            "to k+1): returns (x, P, K, Pp) as FilterPy: K the smoother gains (zero last), Pp the predicted "
-           "covariances with Pp[-1] = Ps[-1].")
+           "covariances with Pp[-1] = Ps[-1]. Raises kfx.Error if Xs, Ps differ in length or are not (T, dim_x) / "
+           "(T, dim_x, 1) and (T, dim_x, dim_x), or if Fs, Qs do not have one (dim_x, dim_x) item per step.")
       .def("get_prediction", &KF::GetPrediction, py::arg("u") = py::none(), py::arg("B") = py::none(),
            py::arg("F") = py::none(), py::arg("Q") = py::none(),
-           "(x, P) predict() would give; the filter is unchanged.")
+           "(x, P) predict() would give; the filter is unchanged. Raises kfx.Error as predict.")
       .def("get_update", &KF::GetUpdate, py::arg("z") = py::none(),
-           "(x, P) update(z) would give; the filter is unchanged (z None: the current x, P).")
-      .def("residual_of", &KF::ResidualOf, py::arg("z"), "z - H x_prior.")
+           "(x, P) update(z) would give; the filter is unchanged (z None: the current x, P). Raises kfx.Error as "
+           "update_steadystate; kfx.NumericalError if S is not positive definite.")
+      .def("residual_of", &KF::ResidualOf, py::arg("z"),
+           "z - H x_prior. Raises kfx.Error if z is not a measurement of length dim_z or has an infinite entry.")
       .def("to_model", &KF::AsModel, "The time-invariant kfx.Model (F, H, Q, R, x, P); B and M are not part of it.");
   static PyMethodDef predict = {
       "predict", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(FastPredict)),
       METH_FASTCALL | METH_KEYWORDS,
       "predict($self, /, u=None, B=None, F=None, Q=None)\n--\n\n"
-      "x = F x + B u, P = alpha^2 F P F^T + Q (Q given as a number: q I); sets x_prior, P_prior."};
+      "x = F x + B u, P = alpha^2 F P F^T + Q (Q given as a number: q I); sets x_prior, P_prior. Raises "
+      "kfx.Error if F, Q are not (dim_x, dim_x) (Q also a number), B is not (dim_x, k) or u does not have k "
+      "entries, if an argument is not a real numeric array, or if x, P, F or Q was reshaped in place."};
   static PyMethodDef update = {
       "update", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(FastUpdate)), METH_FASTCALL | METH_KEYWORDS,
       "update($self, /, z, R=None, H=None)\n--\n\n"
       "Joseph-form update with z (a number, (dim_z,), (dim_z, 1) or (1, dim_z)); None: no update; NaN "
-      "entries are missing. Sets y, S, K, z, x_post, P_post. Raises kfx.NumericalError if S is not "
-      "positive definite."};
+      "entries are missing. Sets y, S, K, z, x_post, P_post. Raises kfx.Error if z is not a measurement of "
+      "length k = the rows of H or has an infinite entry, if H is not (k, dim_x) or R not (k, k) (or a "
+      "number), or if an attribute was reshaped in place; kfx.NumericalError if S is not positive definite."};
   DefFast(cls, &predict);
   DefFast(cls, &update);
 }
