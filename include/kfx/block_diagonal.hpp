@@ -50,6 +50,8 @@ struct CoupledStep {
 };
 
 /// The same (F, H, V, R, g) for all n subsystems; G = 1_n (x) g.
+/// @throws kfx::Error if n < 1, F is not square (c x c), or H, V, R, g, U are not d x c, c x c, d x d, c x r,
+///         r x r.
 CoupledStep MakeIdenticalCoupledStep(Eigen::Index n, const Eigen::MatrixXd& F, const Eigen::MatrixXd& H,
                                      const Eigen::MatrixXd& V, const Eigen::MatrixXd& R, const Eigen::MatrixXd& g,
                                      const Eigen::MatrixXd& U);
@@ -70,6 +72,8 @@ void ValidateCoupledStep(const CoupledStep& s, Eigen::Index n, Eigen::Index c, E
 
 /// A coupled system: time-invariant, a stored sequence, or a callback k -> step; prior
 /// x_0 ~ N(m0, blockdiag(P0)) with P0 packed c x (n c). Copies are cheap.
+/// @throws kfx::Error (every constructor) naming the matrix (and step) at fault, as ValidateCoupledStep, or
+///         for m0 not of length n c, P0 not c x (n c) with symmetric PSD blocks, an empty list of steps.
 class CoupledSystem {
  public:
   using StepFunction = std::function<CoupledStep(int k)>;
@@ -108,8 +112,10 @@ class CoupledSystem {
 // ---- Packed block-diagonal helpers ----------------------------------------------------------------
 
 /// The dense (n a) x (n b) block-diagonal matrix of packed blocks (a x (n b)).
+/// @throws kfx::Error unless block_cols >= 1 divides the columns of blocks.
 Eigen::MatrixXd BlockDiagonalToDense(const Eigen::MatrixXd& blocks, Eigen::Index block_cols);
 /// D{M}: the diagonal a x a blocks of a square dense M, packed a x (n a) (004, definition of D).
+/// @throws kfx::Error unless M is square and a >= 1 divides its size.
 Eigen::MatrixXd DiagonalBlocks(const Eigen::MatrixXd& M, Eigen::Index a);
 /// y = blockdiag(M) x for packed blocks M (a x (n b)), x of length n b.
 Eigen::VectorXd BlockDiagonalApply(const Eigen::MatrixXd& blocks, Eigen::Index block_cols, const Eigen::VectorXd& x);
@@ -290,6 +296,8 @@ CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind,
 
 /// The filter as a kfx::LinearFilter (dense Phi_k = (I - K_k H_k) F_k, K_k) over options.steps steps,
 /// for the exact-performance engine: its true error on any model (ExactPerformance). Moderate n only.
+/// @throws kfx::Error for steps beyond the system's horizon (or none given without one);
+///         kfx::NumericalError if a step's innovation covariance is not positive definite.
 LinearFilter CoupledFilterAsLinearFilter(const CoupledSystem& system, CoupledFilterKind kind,
                                          const CoupledFilterOptions& options);
 
@@ -299,7 +307,8 @@ struct CoupledTrajectory {
   TimeSeries y;  ///< T x (n d)
   TimeSeries u;  ///< T x r
 };
-/// options.steps: T (negative: the system's horizon).
+/// options.steps: T (negative: the system's horizon). @throws kfx::Error for steps beyond the horizon (or
+/// none given without one) or a step that fails ValidateCoupledStep.
 CoupledTrajectory SimulateCoupled(const CoupledSystem& system, const SimulationOptions& options);
 
 // ---- Many independent small filters (U = 0) -------------------------------------------------------
@@ -424,6 +433,7 @@ struct KroneckerStructured {
   Eigen::MatrixXd MeanMode() const;       ///< X + n Y
 };
 /// ||A - B||_F of two structured matrices with the same n: sqrt(n |dX + dY|^2 + n (n - 1) |dY|^2).
+/// @throws kfx::Error unless a and b have the same n and block shapes.
 double FrobeniusDistance(const KroneckerStructured& a, const KroneckerStructured& b);
 
 struct IdenticalSubsystems {         ///< n identical subsystems (state c, measurement d) coupled by an r-input.

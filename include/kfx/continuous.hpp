@@ -32,6 +32,8 @@
 namespace kfx {
 
 /// The continuous-time model (1) of paper 003. No input noise: B and Q empty (or B p x 0, Q 0 x 0).
+/// The Python constructor checks it (ValidateContinuousModel): @throws kfx::Error naming the matrix at fault
+/// for wrong shapes, non-finite entries, Q or P0 not symmetric PSD, R not symmetric PD.
 struct ContinuousModel {
   Eigen::MatrixXd A;   ///< p x p
   Eigen::MatrixXd B;   ///< p x q
@@ -95,6 +97,7 @@ RiccatiFlow ComposeRiccatiFlows(const RiccatiFlow& first, const RiccatiFlow& sec
 RiccatiFlow KalmanBucyFlow(const ContinuousModel& model, double h);
 
 /// P_c(T): the Kalman-Bucy error covariance at time T >= 0 (P_c(0) = P0).
+/// @throws kfx::Error on an invalid model (ValidateContinuousModel) or T not finite and >= 0.
 Eigen::MatrixXd KalmanBucyCovariance(const ContinuousModel& model, double T);
 
 /// Continuous algebraic Riccati equation of the filter, A P + P A^T + B Q B^T - P C^T R^{-1} C P = 0:
@@ -105,6 +108,7 @@ CareSolution SolveFilterCare(const ContinuousModel& model);
 
 /// Exact simulation of (z, y) on the grid t_i = i T / N (the augmented sampled model, so z(t_i)
 /// and the increments of y have exactly the continuous model's joint law).
+/// @throws kfx::Error on an invalid model, T not finite and > 0, or N < 1.
 struct ContinuousTrajectory {
   std::vector<double> t;  ///< N + 1 times, t[0] = 0
   TimeSeries z;           ///< (N+1) x p, row i = z(t_i)
@@ -113,6 +117,8 @@ struct ContinuousTrajectory {
 ContinuousTrajectory SimulateContinuous(const ContinuousModel& model, double T, int N, std::uint64_t seed);
 
 /// The sampled filter on increments dy over the grid i T / n (n = dy.rows()): returns z_{T,n}.
+/// @throws kfx::Error on an invalid model, T not finite and > 0, no row of dy, dy without r columns or
+///         with an infinite entry.
 Eigen::VectorXd SampledFilterEstimate(const ContinuousModel& model, double T, const TimeSeries& dy);
 
 /// The Kalman-Bucy filter d zhat = A zhat dt + K(t) (dy - C zhat dt), K = P C^T R^{-1}, driven by
@@ -120,6 +126,8 @@ Eigen::VectorXd SampledFilterEstimate(const ContinuousModel& model, double T, co
 /// Wong-Zakai approximation; exact in the limit of a fine grid since K is deterministic), with P(t)
 /// from the Riccati flow and the ODE for zhat integrated by classical RK4 with `substeps` steps per
 /// grid interval. Returns zhat(T) and P_c(T).
+/// @throws kfx::Error on an invalid model, T not finite and > 0, dy not (N >= 1, r) or not finite,
+///         substeps < 1.
 struct KalmanBucyRun {
   Eigen::VectorXd z_hat;  ///< estimate at T
   Eigen::MatrixXd P;      ///< P_c(T)

@@ -23,6 +23,9 @@ struct LinearFilterStep {  ///< One step of a linear filter: z_k = Phi z_{k-1} +
 
 using LinearFilterStepPtr = std::shared_ptr<const LinearFilterStep>;
 
+/// A validated linear filter. @throws kfx::Error (every constructor) naming the matrix (and step) at fault:
+/// Phi not n_z x n_z, K not n_z x m, O not n_out x n_z (or missing when n_out != n_z), z0 not of length n_z,
+/// O0 not n_out x n_z, non-finite entries, an empty list of steps.
 class LinearFilter {
  public:
   using StepFunction = std::function<LinearFilterStep(int k)>;
@@ -41,8 +44,9 @@ class LinearFilter {
   Eigen::Index output_dim() const { return n_out_; }                 ///< n_out (the estimated state's dimension)
   bool time_invariant() const { return kind_ == Kind::kInvariant; }  ///< one step for every k
   int horizon() const { return horizon_; }                           ///< steps defined, -1 when unbounded
-  LinearFilterStepPtr step(int k) const;                             ///< the step k >= 1 (Phi_k, K_k, O_k)
-  const Eigen::VectorXd& z0() const { return z0_; }                  ///< initial filter state (length n_z)
+  /// The step k >= 1 (Phi_k, K_k, O_k). @throws kfx::Error if k is outside 1..horizon.
+  LinearFilterStepPtr step(int k) const;
+  const Eigen::VectorXd& z0() const { return z0_; }  ///< initial filter state (length n_z)
   /// Output map at k = 0 (identity when empty and n_out == n_z).
   const Eigen::MatrixXd& O0() const { return O0_; }
 

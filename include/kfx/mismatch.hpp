@@ -237,7 +237,9 @@ Theorem5Result Theorem5Bound(const ModelStep& design, const DesignTerms& terms, 
 double Theorem6Bound(const ModelStep& design, const ErrorNorms& norms);
 
 /// Every bound of Theorems 3-6 that applies to the ranges (3, 4: plant exact; 5, 6: noise exact;
-/// all four when the ranges are all zero).
+/// all four when the ranges are all zero). @throws kfx::Error (ComputePatelTodaBounds) for an invalid design
+/// step, a range of the wrong shape, non-finite, negative or (Q, R) not symmetric, or a filter gain that is not
+/// n x m and finite.
 struct PatelTodaBounds {
   ErrorNorms norms;
   DesignTerms terms;

@@ -68,6 +68,9 @@ using StepPtr = std::shared_ptr<const ModelStep>;
 /// callback k -> step. Copies are cheap (steps are shared, immutable). It has at least one state and one
 /// measurement: n = 0 or m = 0 (a 0 x 0 A, a C with no rows) throws kfx::Error naming A or C (n, m for a
 /// callback model) in every constructor, so model files and the Python package reject them too.
+/// @throws kfx::Error (every constructor) naming the matrix (and step) at fault: A not square, C, Q, R, B, U
+/// of the wrong shape, non-finite entries, Q, U, P0 not symmetric PSD, R not symmetric PD, Q given with
+/// B, U, m0 not of length n, n = 0 or m = 0, an empty list of steps.
 class Model {
  public:
   using StepFunction = std::function<ModelStep(int k)>;
@@ -99,7 +102,8 @@ class Model {
   /// @throws kfx::Error if steps exceeds the horizon, or if both are unbounded.
   int ResolveSteps(int steps, const std::string& what = "steps") const;
 
-  /// The same model with a different prior.
+  /// The same model with a different prior. @throws kfx::Error if m0 is not of length n or P0 not n x n
+  /// symmetric PSD.
   Model WithPrior(Eigen::VectorXd m0, Eigen::MatrixXd P0) const;
 
  private:

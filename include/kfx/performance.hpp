@@ -147,6 +147,8 @@ struct MonteCarloResult {                     ///< Monte Carlo error statistics 
 
 /// Monte Carlo estimate of the same quantities: simulate the true model, run the filter online
 /// (RunLinearFilter), average the errors. Results do not depend on how runs are scheduled.
+/// @throws kfx::Error as ExactPerformance, for runs < 2, or for steps beyond a horizon (or not given when
+///         model and filter have none).
 MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
                                        const MonteCarloOptions& options = MonteCarloOptions());
 

@@ -80,7 +80,9 @@ struct ReducedOrderOptions {
 };
 
 /// One-step reduced-order filter (001 Sec. II): the offline part. Index k = 1..T; gains with index
-/// k produce xi_k from (xi_{k-1}, y_{k-1}) (k >= 2).
+/// k produce xi_k from (xi_{k-1}, y_{k-1}) (k >= 2). @throws kfx::Error (ComputeReducedOrderOneStep) for
+/// weights L without n columns or fewer than the steps, steps beyond the
+/// model's horizon (or none given without one), invalid options.
 struct ReducedOrderOneStep {
   Eigen::Index meas_dim = 0;          ///< m
   Eigen::VectorXd xi1;                ///< prior prediction L_1 A_1 m0
@@ -101,9 +103,12 @@ ReducedOrderOneStep ComputeReducedOrderOneStep(const Model& model, const WeightS
 /// The one-step filter as a LinearFilter with state z_k = (xi_k, y_k) (n_e + m): step 1 copies the
 /// prior prediction xi_1 (z_0 = (xi_1, 0)), step k >= 2 is z_k = [[A_e, B_e], [0, 0]] z_{k-1} +
 /// [0; I] y_k, output L_k^+ xi_k (compared with x_k). Output at k = 0 is zero (no estimate of x_0).
+/// @throws kfx::Error if s is not a computed one-step schedule.
 LinearFilter ReducedOrderOneStepAsLinearFilter(const ReducedOrderOneStep& s, const WeightSchedule& L);
 
-/// Two-step reduced-order filter (001 Sec. III). Index k = 1..T.
+/// Two-step reduced-order filter (001 Sec. III). Index k = 1..T. @throws kfx::Error (ComputeReducedOrderTwoStep)
+/// for weights L without n columns or fewer than the steps, steps beyond the
+/// model's horizon (or none given without one), invalid options.
 struct ReducedOrderTwoStep {
   Eigen::VectorXd xi1;                                  ///< prior forecast L_1 A_1 m0
   std::vector<Eigen::MatrixXd> Cf, Df;                  ///< k = 1..T: data assimilation gains (3.16)-(3.17)
@@ -133,6 +138,7 @@ struct EnumValues<TwoStepOutput> {
 /// The two-step filter as a LinearFilter with state z_k = (xi^da_k, xi^f_k): step 1 is
 /// [[C^f_1, 0], [I, 0]] on z_0 = (xi^f_1, 0); step k >= 2 is [[C^f A^da, 0], [A^da, 0]], K = [D^f; 0].
 /// `output` chooses which estimate is compared with x_k (through L_k^+).
+/// @throws kfx::Error if s is not a computed two-step schedule.
 LinearFilter ReducedOrderTwoStepAsLinearFilter(const ReducedOrderTwoStep& s, const WeightSchedule& L,
                                                TwoStepOutput output);
 
@@ -140,6 +146,7 @@ LinearFilter ReducedOrderTwoStepAsLinearFilter(const ReducedOrderTwoStep& s, con
 /// (ExactPerformance with store_error_moments): tr(L_k E[e_k e_k^T] L_k^T). For the filters above
 /// L_k O_k z_k is the estimator state itself.
 /// options.steps: T (negative: the shorter horizon of model and filter); rank_tolerance is not used.
+/// @throws kfx::Error if L does not have n columns, or as ExactPerformance (dimensions, steps, options).
 Eigen::VectorXd WeightedCost(const Model& truth, const LinearFilter& filter, const WeightSchedule& L,
                              const ReducedOrderOptions& options, PerformanceResult* result = nullptr);
 
@@ -148,7 +155,8 @@ Eigen::VectorXd WeightedCost(const Model& truth, const LinearFilter& filter, con
 struct KalmanWeightedCosts {
   Eigen::VectorXd predictor, filter;
 };
-/// options.steps: T (negative: the model's horizon).
+/// options.steps: T (negative: the model's horizon). @throws kfx::Error if L does not have n columns, for
+/// invalid options, or as ComputeKalmanSchedule (steps beyond the horizon).
 KalmanWeightedCosts KalmanCosts(const Model& model, const WeightSchedule& L, const ReducedOrderOptions& options);
 
 // ---- subspace estimators (001 Sec. IV) --------------------------------------------------------
@@ -172,9 +180,12 @@ struct InvariantSubspaceBasis {
 InvariantSubspaceBasis LeastDampedSubspace(const Eigen::MatrixXd& A, Eigen::Index n_r);
 
 /// |A'_sr|_F / |A'|_F of T^{-1} A T: zero for a block upper-triangular form.
+/// @throws kfx::Error if A is not square, T not n x n, or n_r outside 1..n.
 double TriangularityDefect(const Eigen::MatrixXd& A, const Eigen::MatrixXd& T, Eigen::Index n_r);
 
 /// One-step subspace estimator (4.10)-(4.13) in the coordinates x' = T^{-1} x. Index k = 1..T.
+/// @throws kfx::Error (ComputeSubspaceOneStep) for T not n x n, finite and invertible, n_r outside 1..n, L_k V_r
+/// not of full column rank, or as ComputeReducedOrderOneStep (weights, steps, options).
 struct SubspaceOneStep {
   Eigen::Index meas_dim = 0;          ///< m
   Eigen::VectorXd xi1;                ///< prior prediction F T^{-1} A_1 m0
@@ -193,10 +204,12 @@ SubspaceOneStep ComputeSubspaceOneStep(const Model& model, const Eigen::MatrixXd
                                        const WeightSchedule& L,
                                        const ReducedOrderOptions& options = ReducedOrderOptions());
 
-/// As ReducedOrderOneStepAsLinearFilter, with output V_r xi_k.
+/// As ReducedOrderOneStepAsLinearFilter, with output V_r xi_k. @throws kfx::Error if s is not a computed
+/// schedule, T not square, or n_r not the schedule's subspace dimension.
 LinearFilter SubspaceOneStepAsLinearFilter(const SubspaceOneStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r);
 
-/// Two-step subspace estimator (4.16)-(4.20). Index k = 1..T.
+/// Two-step subspace estimator (4.16)-(4.20). Index k = 1..T. @throws kfx::Error (ComputeSubspaceTwoStep) as
+/// ComputeSubspaceOneStep.
 struct SubspaceTwoStep {
   Eigen::VectorXd xi1;                   ///< prior forecast
   std::vector<Eigen::MatrixXd> Cf, Df;   ///< k = 1..T: (4.16)
@@ -212,7 +225,8 @@ SubspaceTwoStep ComputeSubspaceTwoStep(const Model& model, const Eigen::MatrixXd
                                        const WeightSchedule& L,
                                        const ReducedOrderOptions& options = ReducedOrderOptions());
 
-/// As ReducedOrderTwoStepAsLinearFilter, with outputs V_r xi.
+/// As ReducedOrderTwoStepAsLinearFilter, with outputs V_r xi. @throws kfx::Error if s is not a computed
+/// schedule or n_r not the schedule's subspace dimension.
 LinearFilter SubspaceTwoStepAsLinearFilter(const SubspaceTwoStep& s, const Eigen::MatrixXd& T, Eigen::Index n_r,
                                            TwoStepOutput output);
 

@@ -77,6 +77,8 @@ double LogLogSlope(const std::vector<double>& x, const std::vector<double>& y, d
 ///   A = blockdiag([[0, omega_k], [-omega_k, 0]]),  C z = sum_k d_k (omega_k alpha_k),
 ///   P0 = blockdiag(diag(0, sigma_k^2)),  R scalar.
 /// (d_k are the output coefficients in the energy basis; |C| = |d|_2.)
+/// @throws kfx::Error unless sigma2 and d have the same number (>= 1) of entries, sigma2 >= 0, d finite and
+///         R > 0 (ValidateContinuousModel).
 ContinuousModel WaveModalModel(const std::vector<double>& sigma2, const std::vector<double>& d, double R);
 
 }  // namespace kfx

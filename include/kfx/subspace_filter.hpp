@@ -38,7 +38,9 @@
 
 namespace kfx {
 
-/// The inner product and the subspace of Algorithm 2.3.
+/// The inner product and the subspace of Algorithm 2.3. The Python constructor checks it (ValidateSubspace):
+/// @throws kfx::Error naming subspace.gram or subspace.projection for bad shapes, non-finite entries, W not
+/// SPD, or Pi W^{-1} Pi^T != I.
 struct Subspace {
   Eigen::MatrixXd gram;        ///< N x N symmetric positive definite W (empty: identity)
   Eigen::MatrixXd projection;  ///< n x N Pi, orthonormal in W: Pi W^{-1} Pi^T = I
@@ -96,6 +98,8 @@ struct SubspaceFilterOptions {
   bool IsValid(std::string* error) const;
 };
 
+/// @throws kfx::Error (ComputeSubspaceFilterSchedule) on invalid input (shapes, subspace, options); numerical
+/// outcomes are in summary.
 struct SubspaceFilterSchedule {             ///< The offline part of the subspace filter (000): gains, output maps, P.
   std::vector<Eigen::MatrixXd> gain;        ///< K_k (N x m), k = 1..T (index 0 empty), if stored
   std::vector<Eigen::MatrixXd> output_map;  ///< Q_k (N x n), k = 0..T, if stored
@@ -131,7 +135,7 @@ LinearFilter SubspaceFilterAsLinearFilter(const ModelStep& truth, const Subspace
                                           const Eigen::Ref<const Eigen::VectorXd>& m0);
 
 /// The converged (time-invariant) filter from the schedule's last K, Q:
-/// Phi = Pi (A - K C A) Q, gain Pi K, O = Q, z_0 = Pi m0.
+/// Phi = Pi (A - K C A) Q, gain Pi K, O = Q, z_0 = Pi m0. @throws kfx::Error if m0 is not of length n.
 LinearFilter ConvergedSubspaceFilterAsLinearFilter(const ModelStep& truth, const Subspace& subspace,
                                                    const SubspaceFilterSchedule& schedule,
                                                    const Eigen::Ref<const Eigen::VectorXd>& m0);
@@ -140,6 +144,7 @@ LinearFilter ConvergedSubspaceFilterAsLinearFilter(const ModelStep& truth, const
 /// V^ of x - Q^ Pi x from the stationary state covariance S; the approximate reduced model
 ///   A_r = Pi A Q^, Q_r = Pi (Q + A V^ A^T) Pi^T, C_r = C Q^  (R unchanged, as printed),
 /// its DARE (SolveFilterDare) and the filter Phi = (I - K_r C_r) A_r, gain K_r, O = Q^.
+/// @throws kfx::Error (ComputeApproximateSubspaceFilter) on invalid input; numerical outcomes are in summary.
 struct ApproximateSubspaceFilter {
   Eigen::MatrixXd Q_hat, V_hat;  ///< N x n, N x N
   Eigen::MatrixXd A_r, Q_r, C_r;
@@ -160,6 +165,7 @@ LinearFilter ApproximateSubspaceFilterAsLinearFilter(const ApproximateSubspaceFi
                                                      const Eigen::Ref<const Eigen::VectorXd>& z0);
 
 /// The error bounds of Sec. 4, computed in W-orthonormal coordinates (operator norms and traces of X).
+/// @throws kfx::Error (ComputeDiscretizationBounds) on invalid input; numerical outcomes are in summary.
 /// Full filter: K^(F), P~^(F) from the DARE with Q; Phi_F = A - K^(F) C A. Reduced: K_inf, Q_inf, M_inf
 /// from a converged schedule. M = (I - Pi_s) S (I - Pi_s)^*.
 struct DiscretizationBounds {

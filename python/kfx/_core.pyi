@@ -67,7 +67,7 @@ class CoupledRun:
     x_filt: numpy.ndarray
 
 class CoupledStep:
-    """004: one step of n coupled subsystems, per block (packed: a block-diagonal matrix with a x b blocks is an a x (n b) array, block i in columns [i b, (i+1) b)). G is (n c, r)."""
+    """004: one step of n coupled subsystems, per block (packed: a block-diagonal matrix with a x b blocks is an a x (n b) array, block i in columns [i b, (i+1) b)). G is (n c, r). Raises kfx.Error naming the matrix (and block) at fault: shapes, non-finite entries, V_i, U not symmetric PSD, R_i not symmetric PD."""
     F: numpy.ndarray
     G: numpy.ndarray
     H: numpy.ndarray
@@ -238,9 +238,9 @@ class LinearFilter:
     horizon: int
     meas_dim: int
     output_dim: int
-    def run(self: LinearFilter, y: numpy.ndarray) -> numpy.ndarray: """The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out)."""
+    def run(self: LinearFilter, y: numpy.ndarray) -> numpy.ndarray: """The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out). Raises kfx.Error if y does not have m columns, has a non-finite entry, or has more rows than the filter's horizon."""
     state_dim: int
-    def step(self: LinearFilter, k: int) -> LinearFilterStep: """the step k >= 1 (Phi_k, K_k, O_k)"""
+    def step(self: LinearFilter, k: int) -> LinearFilterStep: """The step k >= 1 (Phi_k, K_k, O_k). Raises kfx.Error if k is outside 1..horizon."""
     time_invariant: bool
     z0: numpy.ndarray
 
@@ -272,7 +272,7 @@ class Model:
     state_dim: int
     def step(self: Model, k: int) -> ModelStep: """The matrices of step k >= 1."""
     time_invariant: bool
-    def with_prior(self: Model, m0: numpy.ndarray, P0: numpy.ndarray) -> Model: """The same model with a different prior."""
+    def with_prior(self: Model, m0: numpy.ndarray, P0: numpy.ndarray) -> Model: """The same model with a different prior. Raises kfx.Error if m0 is not of length n or P0 not n x n"""
 
 class ModelStep:
     """The matrices of one step: x_k = A x_{k-1} + w_k, w_k ~ N(0, Q) (or w_k = B u_k, u_k ~ N(0, U), Q = B U B^T); y_k = C x_k + v_k, v_k ~ N(0, R)."""
@@ -461,7 +461,7 @@ def constant_gain_as_linear_filter(design: ModelStep, filter_gain: numpy.ndarray
 
 def converged_subspace_filter_as_linear_filter(truth: ModelStep, subspace: Subspace, schedule: SubspaceFilterSchedule, m0: numpy.ndarray) -> LinearFilter: """The converged (time-invariant) filter from the schedule's last K, Q:"""
 
-def coupled_filter_as_linear_filter(system: CoupledSystem, kind: str, steps: int) -> LinearFilter: """The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance."""
+def coupled_filter_as_linear_filter(system: CoupledSystem, kind: str, steps: int) -> LinearFilter: """The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance. Raises kfx.Error for an unknown kind or steps beyond the system's horizon."""
 
 def damped_wave(fine_nodes: int = 65, coarse_nodes: int = 5, eps: float = 0.4, dt: float = 0.01) -> DampedWaveProblem: """000 Sec. 5: the damped wave equation (P1 FEM, implicit Euler) on nested meshes and the coarse subspace."""
 
@@ -483,7 +483,7 @@ def filter_many(F: numpy.ndarray, H: numpy.ndarray, Q: numpy.ndarray, R: numpy.n
 
 def frobenius_distance(a: KroneckerStructured, b: KroneckerStructured) -> float: """||A - B||_F of two structured matrices with the same n: sqrt(n |dX + dY|^2 + n (n - 1) |dY|^2)."""
 
-def kalman_as_linear_filter(model: Model, steps: int = -1) -> LinearFilter: """The Kalman filter of `model` as a LinearFilter: Phi_k = (I - K_k C_k) A_k, gain K_k, z_0 = m0."""
+def kalman_as_linear_filter(model: Model, steps: int = -1) -> LinearFilter: """The Kalman filter of `model` as a LinearFilter: Phi_k = (I - K_k C_k) A_k, gain K_k, z_0 = m0. Raises kfx.Error if steps exceeds the model's horizon, or is negative for a model without one."""
 
 def kalman_bucy_covariance(model: ContinuousModel, T: float) -> numpy.ndarray: """P_c(T) of the Kalman-Bucy filter (Hamiltonian exponential and doubling)."""
 
@@ -523,7 +523,7 @@ def reduced_order_two_step(model: Model, L: WeightSchedule, steps: int = -1, ran
 
 def reduced_order_two_step_as_linear_filter(schedule: ReducedOrderTwoStep, L: WeightSchedule, output: str = 'data_assimilation') -> LinearFilter: """The two-step filter as a LinearFilter with state z_k = (xi^da_k, xi^f_k): step 1 is"""
 
-def reproduce(paper: str, quick: bool = False, out_dir: str = '', progress: object = None) -> list: """A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data for figures goes (kfx.plots.render(out_dir) draws them). progress: None or progress(done, total) for each paper in turn, at most every 0.05 s; Ctrl-C stops the run with KeyboardInterrupt."""
+def reproduce(paper: str, quick: bool = False, out_dir: str = '', progress: object = None) -> list: """A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data for figures goes (kfx.plots.render(out_dir) draws them). progress: None or progress(done, total) for each paper in turn, at most every 0.05 s; Ctrl-C stops the run with KeyboardInterrupt. Raises kfx.Error if paper is not one of paper_ids() or 'all', or if out_dir cannot be written."""
 
 def rts_smooth(model: Model, run: FilterRun, progress: object = None) -> SmootherRun: """Rauch-Tung-Striebel smoother of a run_filter result (needs store_covariances='full'; raises kfx.Error otherwise). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
@@ -580,11 +580,11 @@ def subspace_from_basis(basis: numpy.ndarray, gram: numpy.ndarray) -> Subspace: 
 
 def subspace_one_step(model: Model, T: numpy.ndarray, n_r: int, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> SubspaceOneStep: """001 Sec. IV (4.10)-(4.13): the one-step subspace estimator."""
 
-def subspace_one_step_as_linear_filter(schedule: SubspaceOneStep, T: numpy.ndarray, n_r: int) -> LinearFilter: """As ReducedOrderOneStepAsLinearFilter, with output V_r xi_k."""
+def subspace_one_step_as_linear_filter(schedule: SubspaceOneStep, T: numpy.ndarray, n_r: int) -> LinearFilter: """As ReducedOrderOneStepAsLinearFilter, with output V_r xi_k. Raises kfx.Error if s is not a computed"""
 
 def subspace_two_step(model: Model, T: numpy.ndarray, n_r: int, L: WeightSchedule, steps: int = -1, rank_tolerance: float = 1e-10) -> SubspaceTwoStep: """001 (4.16)-(4.20): the two-step subspace estimator."""
 
-def subspace_two_step_as_linear_filter(schedule: SubspaceTwoStep, T: numpy.ndarray, n_r: int, output: str = 'data_assimilation') -> LinearFilter: """As ReducedOrderTwoStepAsLinearFilter, with outputs V_r xi."""
+def subspace_two_step_as_linear_filter(schedule: SubspaceTwoStep, T: numpy.ndarray, n_r: int, output: str = 'data_assimilation') -> LinearFilter: """As ReducedOrderTwoStepAsLinearFilter, with outputs V_r xi. Raises kfx.Error if s is not a computed"""
 
 def theorem1_bound(design: ModelStep, errors: ModelingErrors) -> dict: """002 Theorem 1: tr P <= pi1 for known errors (26 corrected); 'summary' says whether it exists."""
 

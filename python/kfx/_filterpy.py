@@ -57,11 +57,13 @@ class KalmanFilter(_core._KalmanFilter):
         raise _core.Error("inv: kfx does not invert S (it solves with its Cholesky factor); inv cannot be replaced")
 
     def measurement_of_state(self, x):
-        """H x: the measurement a state x would give (x of any shape H can multiply)."""
+        """H x: the measurement a state x would give (x of any shape H can multiply). Raises ValueError (numpy's)
+        if H cannot multiply x."""
         return np.dot(self.H, x)
 
     def log_likelihood_of(self, z):
-        """log N(z; H x, S) with the current x and S (None: log of the smallest float)."""
+        """log N(z; H x, S) with the current x and S (None: log of the smallest float). Raises ValueError (numpy's)
+        if z does not have one entry per row of H, LinAlgError (numpy.linalg) if S is not positive definite."""
         if z is None:
             return math.log(sys.float_info.min)
         r = np.ravel(np.asarray(z, dtype=float)) - np.ravel(np.dot(self.H, self.x))

@@ -82,9 +82,12 @@ py::tuple FilterManyNumpy(const Array& F, const Array& H, const Array& Q, const 
 }  // namespace
 
 void BindBlockDiagonal(py::module_& m) {
-  py::class_<CoupledStep>(m, "CoupledStep",
-                          "004: one step of n coupled subsystems, per block (packed: a block-diagonal matrix with "
-                          "a x b blocks is an a x (n b) array, block i in columns [i b, (i+1) b)). G is (n c, r).")
+  py::class_<CoupledStep>(
+      m, "CoupledStep",
+      "004: one step of n coupled subsystems, per block (packed: a block-diagonal matrix with "
+      "a x b blocks is an a x (n b) array, block i in columns [i b, (i+1) b)). G is (n c, r). Raises kfx.Error "
+      "naming the matrix (and block) at fault: shapes, non-finite entries, V_i, U not symmetric "
+      "PSD, R_i not symmetric PD.")
       .def(py::init([](Eigen::MatrixXd F, Eigen::MatrixXd H, Eigen::MatrixXd V, Eigen::MatrixXd R, Eigen::MatrixXd G,
                        Eigen::MatrixXd U) {
              CoupledStep s{std::move(F), std::move(H), std::move(V), std::move(R), std::move(G), std::move(U)};
@@ -145,7 +148,8 @@ void BindBlockDiagonal(py::module_& m) {
         return CoupledFilterAsLinearFilter(sys, k, o);
       },
       py::arg("system"), py::arg("kind"), py::arg("steps"),
-      "The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance.");
+      "The filter as a kfx.LinearFilter (dense; moderate n) for exact_performance. Raises kfx.Error for an unknown "
+      "kind or steps beyond the system's horizon.");
   m.def(
       "simulate_coupled",
       [](const CoupledSystem& sys, int steps, std::uint64_t seed) {

@@ -239,7 +239,8 @@ void BindSmootherAndSchedule(py::module_& m) {
         return KalmanAsLinearFilter(model, ComputeKalmanSchedule(model, KalmanScheduleOptions{steps}));
       },
       py::arg("model"), py::arg("steps") = -1,
-      "The Kalman filter of `model` as a LinearFilter: Phi_k = (I - K_k C_k) A_k, gain K_k, z_0 = m0.");
+      "The Kalman filter of `model` as a LinearFilter: Phi_k = (I - K_k C_k) A_k, gain K_k, z_0 = m0. Raises "
+      "kfx.Error if steps exceeds the model's horizon, or is negative for a model without one.");
   m.def("constant_gain_as_linear_filter", &ConstantGainAsLinearFilter, py::arg("design"), py::arg("filter_gain"),
         py::arg("z0"), "Phi = (I - K_f C) A, K = K_f, O = I (e.g. with the steady-state DareSolution.filter_gain).");
 }

@@ -44,7 +44,8 @@ void BindPerformance(py::module_& m) {
       .def(
           "run", [](const LinearFilter& f, const TimeSeries& y) { return RunLinearFilter(f, y); }, py::arg("y"),
           py::call_guard<py::gil_scoped_release>(),
-          "The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out).");
+          "The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out). Raises kfx.Error if y does "
+          "not have m columns, has a non-finite entry, or has more rows than the filter's horizon.");
 
   py::class_<PerformanceResult>(m, "PerformanceResult")
       .def_readonly("mse", &PerformanceResult::mse, "tr E[e_k e_k^T], k = 0..T")

@@ -49,7 +49,8 @@ void BindReproduce(py::module_& m) {
       "A paper's published numbers beside kfx's, as a list of dicts (keys: paper, key, description, published, "
       "value, rel_diff, tolerance, status, note). paper: one of paper_ids() or 'all'. out_dir: where CSV data "
       "for figures goes (kfx.plots.render(out_dir) draws them). progress: None or progress(done, total) for "
-      "each paper in turn, at most every 0.05 s; Ctrl-C stops the run with KeyboardInterrupt.");
+      "each paper in turn, at most every 0.05 s; Ctrl-C stops the run with KeyboardInterrupt. Raises kfx.Error "
+      "if paper is not one of paper_ids() or 'all', or if out_dir cannot be written.");
 }
 
 }  // namespace kfx::python

@@ -249,11 +249,12 @@ void FilterPyKalmanFilter::set_alpha(double a) {
 
 // ---- measurements and inputs -------------------------------------------------------------------------
 
-Eigen::VectorXd FilterPyKalmanFilter::Measurement(py::handle z, Eigen::Index k, const char* name) const {
+void FilterPyKalmanFilter::Measurement(py::handle z, Eigen::Index k, const char* name, Eigen::VectorXd& out) const {
   if (IsNumber(z) && k == 1) {
     const double v = z.cast<double>();
     if (std::isinf(v)) throw Error(std::string(name) + ": expected finite entries (NaN: missing), got inf");
-    return Eigen::VectorXd::Constant(1, v);
+    out.setConstant(1, v);
+    return;
   }
   const py::array a = ToArray(z, name);
   const bool ok = (a.ndim() == 0 && k == 1) || (a.ndim() == 1 && a.shape(0) == k) ||
@@ -263,8 +264,13 @@ Eigen::VectorXd FilterPyKalmanFilter::Measurement(py::handle z, Eigen::Index k, 
                 " (a number when 1, shape (" + std::to_string(k) + ",), " + Shape(k, 1) + " or " + Shape(1, k) +
                 "), got shape " + NumpyShapeString(a));
   }
-  Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(static_cast<const double*>(a.data()), k);
-  if (v.array().isInf().any()) throw Error(std::string(name) + ": expected finite entries (NaN: missing), got inf");
+  out = Eigen::Map<const Eigen::VectorXd>(static_cast<const double*>(a.data()), k);
+  if (out.array().isInf().any()) throw Error(std::string(name) + ": expected finite entries (NaN: missing), got inf");
+}
+
+Eigen::VectorXd FilterPyKalmanFilter::Measurement(py::handle z, Eigen::Index k, const char* name) const {
+  Eigen::VectorXd v;
+  Measurement(z, k, name, v);
   return v;
 }
 
@@ -376,8 +382,8 @@ void FilterPyKalmanFilter::Update(py::handle z, py::handle R, py::handle H, bool
     if (Ma.cols() != k)
       throw Error("M: expected " + std::to_string(k) + " columns (the rows of H), got " + std::to_string(Ma.cols()));
   }
-  const Eigen::VectorXd zv = Measurement(z, k, "z");
-  UpdateStep(&zv, Hr, Rr, correlated ? &Ma : nullptr);
+  Measurement(z, k, "z", z_);
+  UpdateStep(&z_, Hr, Rr, correlated ? &Ma : nullptr);
 }
 
 void FilterPyKalmanFilter::UpdateStep(const Eigen::VectorXd* z, const CRef& H, const CRef& R, const RowMat* M) {

@@ -93,6 +93,7 @@ class FilterPyKalmanFilter {
   RowMat Matrix(py::handle v, const char* name, Eigen::Index rows, Eigen::Index cols, Scalar scalar) const;
   // z as FilterPy's reshape_z accepts it: a number, (k,), (k, 1) or (1, k). @throws kfx::Error.
   Eigen::VectorXd Measurement(py::handle z, Eigen::Index k, const char* name) const;
+  void Measurement(py::handle z, Eigen::Index k, const char* name, Eigen::VectorXd& out) const;  // into out
   // B u (empty when there is no control input).
   Eigen::VectorXd ControlInput(py::handle u, py::handle B);
   // The steps on values (no Python object touched: batch_filter runs them without the GIL).
@@ -127,6 +128,7 @@ class FilterPyKalmanFilter {
   std::optional<double> log_likelihood_, likelihood_, mahalanobis_;
   // Scratch of one step (sized once: no allocation per step).
   RowMat x1_, P1_, y_, S_, K_;
+  Eigen::VectorXd z_;
 };
 
 }  // namespace kfx::python

@@ -47,6 +47,87 @@ def test_every_public_name_has_a_docstring():
     assert not missing, f"{len(missing)} public names without a docstring: {missing}"
 
 
+# "Raises kfx.Error ...", "Raises kfx.NumericalError ...", "Raises ValueError ...": what a call raises, and when.
+RAISES = re.compile(r"\b[Rr]aises (kfx\.(Error|NumericalError)|[A-Z]\w*Error)\b")
+# Callables that take arguments but check none of them, with the reason.
+VALIDATES_NOTHING = {
+    "kfx.LinearFilterStep": "a record: kfx.LinearFilter checks its steps",
+    "kfx.blockdiag.IdenticalSubsystems": "a record: analyze_identical_subsystems checks it",
+    "kfx.mismatch.ModelingErrors": "a record: the functions that take it check it against the model",
+    "kfx.mismatch.ErrorRanges": "a record: the functions that take it check it against the design",
+    "kfx.continuous.log_log_slope": "a fit: NaN when fewer than two points qualify, nothing to reject",
+}
+
+
+def arguments_of(obj):
+    """The names of obj's parameters other than self (from pybind11's signature line, else inspect)."""
+    first = (obj.__doc__ or "").lstrip().split("\n", 1)[0]
+    name = getattr(obj, "__name__", "")
+    if getattr(obj, "__text_signature__", None) is None and re.match(rf"^(\d+\. )?{re.escape(name)}\(", first):
+        lines = [l for l in obj.__doc__.splitlines() if re.match(rf"^\s*(\d+\. )?{re.escape(name)}\(", l)]
+        params = set()
+        for line in lines:  # every overload
+            inside = line[line.index("(") + 1:line.rindex(")")]
+            params |= {p.split(":")[0].strip() for p in re.split(r",\s*(?![^\[]*\])", inside) if p.strip()}
+        return sorted(params - {"self", "*args", "**kwargs"})
+    try:
+        return [p for p in inspect.signature(obj).parameters if p != "self"]
+    except (TypeError, ValueError):
+        return []
+
+
+def constructor_of(cls):
+    """cls.__init__ if cls defines one that takes arguments (pybind11 result classes have none)."""
+    for klass in cls.__mro__:
+        if klass is object or not klass.__module__.startswith("kfx"):
+            break
+        init = vars(klass).get("__init__")
+        if isinstance(init, type(object.__init__)):
+            return None  # a slot wrapper: pybind11's "no constructor defined"
+        if init is not None:
+            return init if arguments_of(init) else None
+    return None
+
+
+def validating_callables():
+    """(name, docstring) of every public function, method and constructor that takes arguments, the
+    methods a class inherits from kfx's own compiled bases included (kfx.KalmanFilter.predict)."""
+    for name, obj in public_objects():
+        if name.startswith("kfx.plots.") or name in VALIDATES_NOTHING:
+            continue  # kfx.plots: matplotlib helpers over results, no input of kfx's to check
+        if inspect.isclass(obj):
+            if issubclass(obj, BaseException):
+                continue
+            init = constructor_of(obj)
+            if init is not None:
+                yield name, (obj.__doc__ or "") + "\n" + (init.__doc__ or "")
+            for base in obj.__mro__[1:]:
+                if base.__module__.startswith("kfx") and base.__name__.startswith("_"):
+                    for member, value in vars(base).items():
+                        if not member.startswith("_") and callable(value) and member not in vars(obj):
+                            if f"{name}.{member}" not in VALIDATES_NOTHING and arguments_of(value):
+                                yield f"{name}.{member}", value.__doc__ or ""
+        elif callable(obj) and not isinstance(obj, property) and arguments_of(obj):
+            yield name, obj.__doc__ or ""
+
+
+def test_every_call_that_checks_its_input_says_what_it_raises():
+    missing = [name for name, doc in validating_callables() if not RAISES.search(doc)]
+    assert not missing, f"{len(missing)} public calls whose docstring has no 'Raises ...': {missing}"
+
+
+def test_the_raises_check_sees_the_calls_it_should():
+    names = dict(validating_callables())
+    # functions, methods, constructors, inherited compiled methods; not argument-less calls or plain results
+    for name in ("kfx.solve_filter_dare", "kfx.Model", "kfx.KalmanFilter.predict", "kfx.KalmanFilter.update",
+                 "kfx.LinearFilter.run", "kfx.blockdiag.simulate_coupled"):
+        assert name in names, name
+    for name in ("kfx.Summary.brief_report", "kfx.DareSolution", "kfx.paper_ids"):
+        assert name not in names, name
+    assert RAISES.search("x. Raises kfx.Error if A is not square.") and RAISES.search("(raises kfx.Error)")
+    assert not RAISES.search("raises nothing") and not RAISES.search("an exception it raises stops the call")
+
+
 def test_docstrings_carry_the_cpp_comments():
     # The comment of SolveFilterDare (include/kfx/riccati.hpp) is in kfx.solve_filter_dare's docstring.
     header = open(kfx_header("riccati.hpp"), encoding="utf-8").read()

@@ -3,6 +3,7 @@ behaviour checked against numbers derived here (closed forms, the joint Gaussian
 reference written for this file). FilterPy itself is not needed (its own tests were run by hand:
 docs/python.md)."""
 import copy
+import inspect
 import math
 import pickle
 import sys
@@ -136,6 +137,58 @@ def test_update_matches_the_joint_gaussian_and_keeps_x_shape(column):
     s.x, s.P, s.R, s.H = np.array([[2.0]]), 3.0, 1.0, np.array([[1.0]])
     s.update(6.0)
     assert s.x[0, 0] == pytest.approx(2 + 0.75 * 4, rel=1e-15) and s.P[0, 0] == pytest.approx(0.75, rel=1e-15)
+
+
+@pytest.mark.parametrize("n,m", [(1, 1), (4, 2), (8, 8), (9, 3), (3, 9), (12, 5)])
+def test_steps_match_the_references_on_both_sides_of_the_small_size_kernels(n, m):
+    # Up to n, m = 8 the steps run on compile-time-bounded matrices with their own products, above on
+    # Eigen's (python/src/filterpy_kernels.hpp): both against the closed-form prediction and the joint Gaussian.
+    kf = random_filter(n, m)
+    kf.alpha = 1.05
+    kf.M = 0.1 * rng.standard_normal((n, m))
+    for correlated in (False, True, False):
+        F, Q, x, P = kf.F.copy(), kf.Q.copy(), kf.x[:, 0].copy(), kf.P.copy()
+        kf.predict()
+        np.testing.assert_allclose(kf.x[:, 0], F @ x, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(kf.P, 1.05 ** 2 * F @ P @ F.T + Q, rtol=1e-12, atol=1e-14)
+        x, P, z = kf.x[:, 0].copy(), kf.P.copy(), rng.standard_normal(m)
+        (kf.update_correlated if correlated else kf.update)(z)
+        xr, Pr, y, S, K = ref_update(x, P, z, kf.H, kf.R, kf.M if correlated else None)
+        np.testing.assert_allclose(kf.x[:, 0], xr, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(kf.P, Pr, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(kf.S, S, rtol=1e-12)
+        np.testing.assert_allclose(kf.K, K, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(kf.y[:, 0], y, rtol=1e-12, atol=1e-14)
+
+
+def test_predict_and_update_take_arguments_as_python_functions_do():
+    # predict and update are vectorcall methods (bind_filterpy_kalman_filter.cpp): positional and keyword
+    # arguments bind as in a Python def, and a wrong call raises TypeError as Python's would.
+    a = random_filter(4, 2)
+    b = copy.deepcopy(a)
+    F2, H2, R2, z = 0.5 * np.eye(4), rng.standard_normal((2, 4)), 3.0 * np.eye(2), rng.standard_normal(2)
+    a.predict(None, None, F2, 0.5)
+    b.predict(Q=0.5, F=F2)
+    x, P = a.x[:, 0].copy(), a.P.copy()
+    a.update(z, R2, H2)
+    b.update(H=H2, R=R2, z=z)
+    xr, Pr, _, _, _ = ref_update(x, P, z, H2, R2)
+    for kf in (a, b):
+        np.testing.assert_allclose(kf.x[:, 0], xr, rtol=1e-12)
+        np.testing.assert_allclose(kf.P, Pr, rtol=1e-12, atol=1e-14)
+    for call, what in ((lambda: a.update(), "missing required argument 'z'"),
+                       (lambda: a.update(z, z=z), "multiple values for argument 'z'"),
+                       (lambda: a.update(z, Rr=R2), "unexpected keyword argument 'Rr'"),
+                       (lambda: a.predict(1.0, None, None, None, None), "at most 4 arguments"),
+                       (lambda: kfx.KalmanFilter.predict(None), "predict")):
+        with pytest.raises(TypeError, match=what):
+            call()
+    np.testing.assert_allclose(a.x[:, 0], xr, rtol=1e-12)  # a failed call changes nothing
+    with pytest.raises(kfx.Error, match="Q: expected shape"):  # kfx's own errors as before
+        a.predict(Q=np.ones((3, 3)))
+    assert list(inspect.signature(kfx.KalmanFilter.update).parameters) == ["self", "z", "R", "H"]
+    assert list(inspect.signature(a.predict).parameters) == ["u", "B", "F", "Q"]
+    assert "x_prior" in kfx.KalmanFilter.predict.__doc__
 
 
 def test_update_none_and_missing_entries():
