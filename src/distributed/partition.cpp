@@ -51,6 +51,21 @@ double BlockDiagonalSubsystemCost(Index c, Index d, Index r) {
   return cc * cc * cc + cc * cc * dd + cc * dd * dd + dd * dd * dd + (cc + dd) * rr * rr;
 }
 
+namespace {
+
+// Columns (rows) [first, first + count) of M. An empty M (r = 0
+// couplings, or d = 0) has a null data pointer that a block must not offset (UBSan).
+MatrixXd MiddleCols(const MatrixXd& M, Index first, Index count) {
+  if (M.size() == 0) return MatrixXd(M.rows(), count);
+  return M.middleCols(first, count);
+}
+MatrixXd MiddleRows(const MatrixXd& M, Index first, Index count) {
+  if (M.size() == 0) return MatrixXd(count, M.cols());
+  return M.middleRows(first, count);
+}
+
+}  // namespace
+
 CoupledStep SliceCoupledStep(const CoupledStep& s, Index first, Index count) {
   const Index n = s.n(), c = s.c(), d = s.d();
   if (first < 0 || count < 0 || first + count > n) {
@@ -58,11 +73,11 @@ CoupledStep SliceCoupledStep(const CoupledStep& s, Index first, Index count) {
                 std::to_string(first) + ", " + std::to_string(first + count) + ")");
   }
   CoupledStep out;
-  out.F = s.F.middleCols(first * c, count * c);
-  out.H = s.H.middleCols(first * c, count * c);
-  out.V = s.V.middleCols(first * c, count * c);
-  out.R = s.R.middleCols(first * d, count * d);
-  out.G = s.G.middleRows(first * c, count * c);
+  out.F = MiddleCols(s.F, first * c, count * c);
+  out.H = MiddleCols(s.H, first * c, count * c);
+  out.V = MiddleCols(s.V, first * c, count * c);
+  out.R = MiddleCols(s.R, first * d, count * d);
+  out.G = MiddleRows(s.G, first * c, count * c);
   out.U = s.U;
   return out;
 }

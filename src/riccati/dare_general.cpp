@@ -247,7 +247,9 @@ DareSolution SolveByTransform(const ConstRef& A, const ConstRef& C, const ConstR
     sol.summary.message = std::string("transformed problem rejected: ") + e.what();
     return sol;
   }
-  if (sol.P_pred.size() != p.n * p.n || !sol.P_pred.allFinite()) return sol;
+  // n = 0: the standard solver's empty solution is the original's too (no S, E or residual to
+  // evaluate; Evaluate would solve with empty right-hand sides, an Eigen block of a null pointer).
+  if (p.n == 0 || sol.P_pred.size() != p.n * p.n || !sol.P_pred.allFinite()) return sol;
   SetOriginal(Evaluate(A, C, Q, R, p, sol.P_pred), &sol);
   return sol;
 }

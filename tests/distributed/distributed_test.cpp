@@ -160,6 +160,30 @@ INSTANTIATE_TEST_SUITE_P(Shapes, Partitioned,
                                   "r" + std::to_string(c.r) + "g" + std::to_string(c.granule);
                          });
 
+// No coupling (r = 0): every filter and the simulation avoid products of empty matrices, which Eigen
+// sends to BLAS with a leading dimension of 0 (OpenBLAS then prints "On entry to DGEMV parameter number 6
+// had an illegal value" on stdout and skips the call), and which the sanitizer build reports as blocks of
+// a null pointer (docs/robustness.md, "Sanitizer findings").
+TEST(NoCoupling, NoIllegalBlasCallAndBlockDiagonalEqualsBanded) {
+  TestRng rng(31);
+  const CoupledSystem sys = RandomSystem(rng, 12, 2, 2, 0, 6);
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  const TimeSeries y = SimulateCoupled(sys, {6, 3}).y;
+  const CoupledRun serial = RunCoupledFilter(sys, CoupledFilterKind::kBlockDiagonal, y);
+  const CoupledRun banded = RunCoupledFilter(sys, CoupledFilterKind::kBanded, y);
+  const auto runs =
+      RunCoupledFilterPartitioned(sys, CoupledFilterKind::kBlockDiagonal, PartitionByCost(12, 2, 4), 4, y);
+  std::fflush(stdout);
+  std::fflush(stderr);
+  const std::string out = ::testing::internal::GetCapturedStdout() + ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(out.find("illegal"), std::string::npos) << out;
+  // Without coupling the block-diagonal filter is exact: it equals the banded filter.
+  EXPECT_LT(Rel(serial.x_filt, banded.x_filt), 1e-12);
+  ASSERT_EQ(runs.size(), 2u);
+  EXPECT_EQ(runs[0].coupling.cols(), 0);
+}
+
 TEST(CoupledFilterSlice, RejectsBadInput) {
   EXPECT_THROW(CoupledFilterSlice(CoupledFilterKind::kFull, 0, 4, VectorXd::Zero(2), MatrixXd::Identity(2, 2)), Error);
   EXPECT_THROW(CoupledFilterSlice(CoupledFilterKind::kBlockDiagonal, 3, 4, VectorXd::Zero(2), MatrixXd::Identity(2, 2)),

@@ -91,8 +91,8 @@ TEST(RobustFilter, FactoredFormsAcceptRankDeficientProcessNoise) {
     MatrixXd B = rng.Gaussian(n, p);
     B.topRows(n / 2) *= 1e-3;  // as a zero-order hold gives: small on positions, O(dt) on velocities
     const MatrixXd C = rng.Gaussian(m, n);
-    const Model model(MakeStepWithNoiseInput(A, B, MatrixXd::Identity(p, p), C, rng.Spd(m, 0.1)), VectorXd::Zero(n),
-                      rng.Spd(n, 1.0));
+    const MatrixXd P0 = rng.Spd(n, 1.0), R = rng.Spd(m, 0.1);  // one draw per statement (TestRng)
+    const Model model(MakeStepWithNoiseInput(A, B, MatrixXd::Identity(p, p), C, R), VectorXd::Zero(n), P0);
     const TimeSeries y = Simulate(model, {40, seed}).y;
     const FilterRun ref = RunFilter(model, y, RunOptions(kJoseph));
     for (const NamedForm& f : kFactored) {

@@ -102,15 +102,15 @@ void FrozenBlockDiagonal::Run(const TimeSeries& y, int k0, int L, TimeSeries* x_
       }
     }
   }
+  if (r == 0) return;  // no coupling: nothing below (and no products of empty matrices)
   // The r-dimensional recursion: w_j = C_1 (s_j + sum_{l<j} M_{j-1-l} w_l) = mu_u of step k0 + j.
   MatrixXd Wm(r, L);
   for (int j = 1; j <= L; ++j) {
     Eigen::VectorXd v = S.col(j - 1);
     for (int l = 1; l < j; ++l) v.noalias() += M_[static_cast<size_t>(j - 1 - l)] * Wm.col(l - 1);
     Wm.col(j - 1).noalias() = gain_.C1 * v;
-    if (coupling && r > 0) coupling->row(k0 + j - 1) = Wm.col(j - 1).transpose();
+    if (coupling) coupling->row(k0 + j - 1) = Wm.col(j - 1).transpose();
   }
-  if (r == 0) return;
   // Sweep 2: b_j = Fc b_{j-1} - E_i w_j added to rows k0 + j.
   std::vector<double> b(static_cast<size_t>(c)), nb(static_cast<size_t>(c));
   for (Index i = 0; i < n; ++i) {

@@ -181,8 +181,14 @@ void CheckPass2(Index nb, Index r, Index k, Index extra_rows, bool with_v, std::
   }
   for (Index j = 0; j < m; ++j) {
     const Index p = j ^ 1;
-    const double sq_ref = W.row(j).squaredNorm(), cross_ref = W.row(j).dot(W.row(p));
-    const double scale_sq = Wa.row(j).squaredNorm(), scale_cross = Wa.row(j).dot(Wa.row(p));
+    // Sums over q by hand: with k = 0, W is m x 0 and W.row(j) would offset its null data pointer (UB).
+    double sq_ref = 0.0, cross_ref = 0.0, scale_sq = 0.0, scale_cross = 0.0;
+    for (Index q = 0; q < k; ++q) {
+      sq_ref += W(j, q) * W(j, q);
+      cross_ref += W(j, q) * W(p, q);
+      scale_sq += Wa(j, q) * Wa(j, q);
+      scale_cross += Wa(j, q) * Wa(p, q);
+    }
     EXPECT_LE(std::abs(sq[j] - sq_ref), 1e-13 * scale_sq) << "sq[" << j << "]";
     EXPECT_LE(std::abs(cross[j] - cross_ref), 1e-13 * scale_cross) << "cross[" << j << "]";
     if (with_v) {

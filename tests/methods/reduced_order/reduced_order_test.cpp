@@ -25,12 +25,13 @@ using Eigen::VectorXd;
 using testing::RelativeDifference;
 using testing::TestRng;
 
-// A seeded time-varying system: x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k.
+// A seeded time-varying system: x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k. One draw per statement,
+// last argument first (matrix_testing.hpp, TestRng).
 Model RandomTimeVaryingModel(TestRng& rng, int n, int m, int T, const VectorXd& m0) {
   std::vector<ModelStep> steps;
   for (int k = 1; k <= T; ++k) {
-    steps.push_back(MakeStep(rng.WithSpectralRadius(n, 0.8 + 0.05 * (k % 5)), rng.Gaussian(m, n), rng.Spd(n, 0.2),
-                             rng.Spd(m, 0.3)));
+    const MatrixXd R = rng.Spd(m, 0.3), Q = rng.Spd(n, 0.2), C = rng.Gaussian(m, n);
+    steps.push_back(MakeStep(rng.WithSpectralRadius(n, 0.8 + 0.05 * (k % 5)), C, Q, R));
   }
   return Model(steps, m0, rng.Spd(n, 0.5));
 }
@@ -394,11 +395,14 @@ Model TriangularPlant(TestRng& rng, const MatrixXd& U, int nr, int m, int T, boo
   for (int k = 1; k <= T; ++k) {
     MatrixXd Ap = rng.WithSpectralRadius(n, 0.9);
     if (triangular) Ap.bottomLeftCorner(n - nr, nr).setZero();
-    steps.push_back(MakeStep(U * Ap * U.transpose(), rng.Gaussian(m, n), rng.Spd(n, 0.2), rng.Spd(m, 0.3)));
+    const MatrixXd R = rng.Spd(m, 0.3), Q = rng.Spd(n, 0.2), C = rng.Gaussian(m, n);
+    steps.push_back(MakeStep(U * Ap * U.transpose(), C, Q, R));
   }
   // A callback model (its steps are made anew on every call), as the reproduction uses.
+  const MatrixXd P0 = rng.Spd(n, 0.5);
+  const VectorXd m0 = rng.Gaussian(n, 1);
   return Model(
-      n, m, [steps](int k) { return steps[static_cast<size_t>(k - 1)]; }, rng.Gaussian(n, 1), rng.Spd(n, 0.5), T);
+      n, m, [steps](int k) { return steps[static_cast<size_t>(k - 1)]; }, m0, P0, T);
 }
 
 TEST(SubspaceOneStep, RecursionIsTheTrueErrorCovarianceOnlyInTriangularForm) {
