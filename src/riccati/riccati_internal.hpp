@@ -31,6 +31,28 @@ void SymmetrizeInPlace(Eigen::MatrixXd& m);
 /// The same device as the Kalman filter's covariance step (src/filter). Below n = 32, Eigen's products.
 void UpdateWithCongruence(const ConstRef& A, const Eigen::MatrixXd& S, double alpha, double beta, Eigen::MatrixXd* out);
 
+/// n x n buffers of the congruence products, allocated by the caller once for a whole iteration: a fresh
+/// 1.3 MB buffer per product (n = 400) is a page-faulting allocation each time, measured at up to a third of
+/// the Smith iteration's time (issue 24).
+struct CongruenceWork {
+  Eigen::MatrixXd L, B;
+};
+
+/// UpdateWithCongruence on the lower triangle only: the strictly upper triangle of *out is left as it was
+/// for n >= 32 (both triangles are written below). No allocation when *work holds n x n buffers.
+void UpdateWithCongruenceLower(const ConstRef& A, const ConstRef& S, double alpha, double beta, CongruenceWork* work,
+                               Eigen::MatrixXd* out);
+
+/// lower(*out) += alpha A X A^T for X = L L^T positive definite, X given by its lower triangle: DPOTRF
+/// (n^3 / 3), W = A L (DTRMM, n^3), DSYRK (n^3): 2.3 n^3 flops against the 3 n^3 of UpdateWithCongruence.
+/// Returns false, with *out unchanged, when n < 32 (Eigen's products are faster there) or X is not
+/// numerically positive definite. The strictly upper triangle of *out is left as it was.
+bool AddCongruenceOfPdLower(const ConstRef& A, const ConstRef& X, double alpha, CongruenceWork* work,
+                            Eigen::MatrixXd* out);
+
+/// |M|_F of the symmetric matrix whose lower triangle M holds.
+double LowerFrobeniusNorm(const Eigen::MatrixXd& m);
+
 /// Eigenvalues of a general real matrix by LAPACK DGEEV (eigenvalues only). About 4x faster than
 /// Eigen::EigenSolver at n = 400 (blocked Hessenberg reduction). Returns false if QR failed.
 bool Eigenvalues(const ConstRef& a, Eigen::VectorXcd* eig);
