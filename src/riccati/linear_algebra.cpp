@@ -76,6 +76,22 @@ double LowerFrobeniusNorm(const MatrixXd& m) {
   return std::sqrt(2.0 * off + m.diagonal().squaredNorm());
 }
 
+MatrixXd MatrixPool::Take(Index rows, Index cols) {
+  for (auto it = free_.begin(); it != free_.end(); ++it) {
+    if (it->size() == rows * cols) {
+      MatrixXd m = std::move(*it);
+      free_.erase(it);
+      m.resize(rows, cols);  // same number of entries: no reallocation
+      return m;
+    }
+  }
+  return MatrixXd(rows, cols);
+}
+
+void MatrixPool::Give(MatrixXd&& m) {
+  if (m.size() > 0) free_.push_back(std::move(m));
+}
+
 bool Eigenvalues(const ConstRef& a_in, Eigen::VectorXcd* eig) {
   const int n = FortranInt(a_in.rows());
   eig->resize(n);
