@@ -70,7 +70,9 @@ bool CholeskyCompletes(MatrixXd* h, double shift) {
 
 }  // namespace
 
-StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, double perturbation) {
+StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, double perturbation, MatrixPool* pool) {
+  MatrixPool local;
+  if (pool == nullptr) pool = &local;
   const auto start = std::chrono::steady_clock::now();
   StabilityCertificate cert;
   cert.summary.computation = "stability certificate";
@@ -89,17 +91,30 @@ StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, doub
     return done(Termination::kConverged, "empty matrix");
   }
   const double u = kUnitRoundoff, nd = static_cast<double>(n);
-  MatrixXd H = X;
+  // H, T1, M from the pool and back to it on every return (Keep).
+  struct Keep {
+    MatrixPool* pool;
+    MatrixXd H, T1, M;
+    ~Keep() {
+      pool->Give(std::move(H));
+      pool->Give(std::move(T1));
+      pool->Give(std::move(M));
+    }
+  } keep{pool, pool->Take(n, n), pool->Take(n, n), pool->Take(n, n)};
+  MatrixXd& H = keep.H;
+  H = X;
   if (!CholeskyCompletes(&H, CholeskySlack(H))) {
     return done(Termination::kUndecided,
                 "X is not certified positive definite (Cholesky factorization of X - c I failed)");
   }
-  MatrixXd T1(n, n);
+  MatrixXd& T1 = keep.T1;
   T1.noalias() = F * X;
-  MatrixXd M = X;
-  M.noalias() -= T1 * F.transpose();
+  MatrixXd& M = keep.M;
+  M = X;
+  // Only M's lower triangle (what DPOTRF reads) is formed: GEMMs of its blocks, the same bound per entry.
+  LowerOfSymmetricProduct(T1, F.transpose(), -1.0, true, &M);
   const double f_norm = F.norm(), x_norm = X.norm();
-  double delta = 2 * (nd + 2) * u * (f_norm * f_norm * x_norm + T1.norm() * f_norm + M.norm());
+  double delta = 2 * (nd + 2) * u * (f_norm * f_norm * x_norm + T1.norm() * f_norm + LowerFrobeniusNorm(M));
   if (perturbation > 0) delta += (2 * perturbation * f_norm + perturbation * perturbation) * x_norm * (1 + 4 * u);
   if (!M.allFinite() || !std::isfinite(delta)) return done(Termination::kUndecided, "X - F X F^T overflows");
   const double c_m = CholeskySlack(M);
@@ -144,12 +159,13 @@ StabilityCertificate CertifyUnchecked(const ConstRef& F, const ConstRef& X, doub
 }
 
 StabilizingVerdict JudgeStabilizing(const ConstRef& F, double perturbation, bool exact_eigenvalues,
-                                    double stability_margin, double psd_tolerance, DareSolution* sol) {
+                                    double stability_margin, double psd_tolerance, DareSolution* sol,
+                                    MatrixPool* pool) {
   StabilizingVerdict v;
   sol->eigenvalues_exact = true;  // until the certificate's bounds are taken
   sol->lyapunov_certified = false;
   if (!exact_eigenvalues) {
-    const StabilityCertificate cert = CertifyUnchecked(F, sol->P_pred, perturbation);
+    const StabilityCertificate cert = CertifyUnchecked(F, sol->P_pred, perturbation, pool);
     // Proven: P > 0 and rho(F) < 1 - margin (for margin 0 the bare certificate suffices).
     sol->lyapunov_certified =
         cert.certified() && (stability_margin == 0.0 || cert.spectral_radius_bound < 1.0 - stability_margin);

@@ -19,8 +19,9 @@ struct DareCandidate {
 };
 
 /// The structure-preserving doubling algorithm on the dual problem (dare_doubling.cpp).
+/// Its n x n buffers come from *pool and go back to it (for the refinement and the certificate).
 DareCandidate SolveDareByDoubling(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R,
-                                  const DareOptions& options);
+                                  const DareOptions& options, MatrixPool* pool);
 
 /// Why no acceptable DARE solution exists, by PBH rank tests (dare_diagnosis.cpp): found = true with
 /// termination kNotDetectable or kNotStabilizable when a test applies.

@@ -1,6 +1,7 @@
 // Small dense linear algebra of the riccati layer on LAPACK (declarations: riccati_internal.hpp) and
 // the public SpectralRadius.
 #include <algorithm>
+#include <cmath>
 #include <complex>
 #include <vector>
 
@@ -27,6 +28,13 @@ void SymmetrizeInPlace(MatrixXd& m) {
 }
 
 void UpdateWithCongruence(const ConstRef& A, const MatrixXd& S, double alpha, double beta, MatrixXd* out) {
+  CongruenceWork work;
+  UpdateWithCongruenceLower(A, S, alpha, beta, &work, out);
+  if (A.rows() >= 32) out->triangularView<Eigen::StrictlyUpper>() = out->transpose();
+}
+
+void UpdateWithCongruenceLower(const ConstRef& A, const ConstRef& S, double alpha, double beta, CongruenceWork* work,
+                               MatrixXd* out) {
   const Index n = A.rows();
   if (n < 32) {
     const MatrixXd AS = A * S.selfadjointView<Eigen::Lower>();
@@ -36,14 +44,52 @@ void UpdateWithCongruence(const ConstRef& A, const MatrixXd& S, double alpha, do
     SymmetrizeInPlace(*out);
     return;
   }
+  if (beta == 0.0 && out->rows() != n) out->resize(n, n);
   const int nf = FortranInt(n), lda = FortranInt(A.outerStride());
-  MatrixXd L = S;
-  L.diagonal() *= 0.5;
-  MatrixXd B = A;
+  work->L = S;
+  work->L.diagonal() *= 0.5;
+  work->B = A;
   const double one = 1.0;
-  dtrmm_("R", "L", "N", "N", &nf, &nf, &one, L.data(), &nf, B.data(), &nf);
-  dsyr2k_("L", "N", &nf, &nf, &alpha, B.data(), &nf, A.data(), &lda, &beta, out->data(), &nf);
-  out->triangularView<Eigen::StrictlyUpper>() = out->transpose();
+  dtrmm_("R", "L", "N", "N", &nf, &nf, &one, work->L.data(), &nf, work->B.data(), &nf);
+  dsyr2k_("L", "N", &nf, &nf, &alpha, work->B.data(), &nf, A.data(), &lda, &beta, out->data(), &nf);
+}
+
+bool AddCongruenceOfPdLower(const ConstRef& A, const ConstRef& X, double alpha, CongruenceWork* work, MatrixXd* out) {
+  const Index n = A.rows();
+  if (n < 32) return false;
+  const int nf = FortranInt(n);
+  work->L = X;
+  int info = 0;
+  dpotrf_("L", &nf, work->L.data(), &nf, &info, 1);
+  if (info != 0) return false;
+  work->B = A;
+  const double one = 1.0;
+  dtrmm_("R", "L", "N", "N", &nf, &nf, &one, work->L.data(), &nf, work->B.data(), &nf);  // B = A L
+  dsyrk_("L", "N", &nf, &nf, &alpha, work->B.data(), &nf, &one, out->data(), &nf);       // out += alpha B B^T (lower)
+  return true;
+}
+
+double LowerFrobeniusNorm(const MatrixXd& m) {
+  const Index n = m.rows();
+  double off = 0.0;
+  for (Index j = 0; j < n; ++j) off += m.col(j).tail(n - j - 1).squaredNorm();
+  return std::sqrt(2.0 * off + m.diagonal().squaredNorm());
+}
+
+MatrixXd MatrixPool::Take(Index rows, Index cols) {
+  for (auto it = free_.begin(); it != free_.end(); ++it) {
+    if (it->size() == rows * cols) {
+      MatrixXd m = std::move(*it);
+      free_.erase(it);
+      m.resize(rows, cols);  // same number of entries: no reallocation
+      return m;
+    }
+  }
+  return MatrixXd(rows, cols);
+}
+
+void MatrixPool::Give(MatrixXd&& m) {
+  if (m.size() > 0) free_.push_back(std::move(m));
 }
 
 bool Eigenvalues(const ConstRef& a_in, Eigen::VectorXcd* eig) {

@@ -25,49 +25,56 @@ using Eigen::MatrixXd;
 // The squared Smith iteration (Smith 1968):
 //   X_0 = Q, A_0 = A;  X_{j+1} = X_j + A_j X_j A_j^T,  A_{j+1} = A_j^2,  so X_j = sum_{k < 2^j} A^k Q A^kT.
 // Each increment is a symmetric congruence: while X_j is positive definite (Q > 0) by its Cholesky factor,
-// A_j X_j A_j^T = (A_j L)(A_j L)^T (DPOTRF + DTRMM + DSYRK, 2.3 n^3 flops), else by UpdateWithCongruence
+// A_j X_j A_j^T = (A_j L)(A_j L)^T (DPOTRF + DTRMM + DSYRK, 2.3 n^3 flops), else by UpdateWithCongruenceLower
 // (DTRMM + DSYR2K, 3 n^3); both exactly symmetric. Each squaring is one GEMM (2 n^3): 4.3 n^3 a step. The remainder
 // after step j is X - X_j = A_j X A_j^T, of norm <= |A_j|_F^2 |X|_F: the iteration stops as soon as |A_j|_F^2 <= eps
 // (the increment would be below rounding), and skips the last squaring when |A_j|_F^4 <= eps (then
 // |A_{j+1}|_F^2 <= eps). It gives up (returns false) when A_j does not contract fast enough to converge
-// within kSmithMaxSteps steps (rho(A) above about 0.998, or transient growth), and the result is
-// accepted only if its residual is <= 1e-13 (2.3 n^3 flops more). About 43 n^3 flops at rho = 0.95, all
-// BLAS level 3, against SB03MD's ~30 n^3 flops of mostly BLAS-2 Schur reduction (issue 24).
+// within the step budget (rho(A) above about 0.998, transient growth, or a slow power-law decay of |A^k| as
+// for the damped wave of paper 000), and the result is accepted only if its residual is <= 1e-13 (2.3 n^3
+// flops more). About 39 n^3 flops at rho = 0.95 (9 steps), all BLAS level 3, against SB03MD's ~30 n^3 flops
+// of mostly BLAS-2 Schur reduction (issue 24). X is kept in its lower triangle (what DPOTRF and DSYRK read
+// and write) and mirrored once at the end; the n x n buffers are allocated once.
 constexpr int kSmithMaxSteps = 14;
 
-/// *out += alpha A X A^T for X = L L^T positive definite (DPOTRF n^3/3, DTRMM n^3, DSYRK n^3; the lower
-/// triangle is computed and mirrored). Returns false, with *out unchanged, when n < 32 (Eigen's products are
-/// faster there) or X is not numerically positive definite; the caller then uses UpdateWithCongruence.
-bool AddCongruenceOfPd(const ConstRef& A, const MatrixXd& X, double alpha, MatrixXd* out) {
-  const Index n = A.rows();
-  if (n < 32) return false;
-  const int nf = detail::FortranInt(n);
-  MatrixXd L = X;
-  int info = 0;
-  dpotrf_("L", &nf, L.data(), &nf, &info, 1);
-  if (info != 0) return false;
-  MatrixXd W = A;
-  const double one = 1.0;
-  dtrmm_("R", "L", "N", "N", &nf, &nf, &one, L.data(), &nf, W.data(), &nf);   // W = A L
-  dsyrk_("L", "N", &nf, &nf, &alpha, W.data(), &nf, &one, out->data(), &nf);  // out += alpha W W^T (lower)
-  out->triangularView<Eigen::StrictlyUpper>() = out->transpose();
-  return true;
-}
-
-/// *out += alpha A X A^T for symmetric X: by the Cholesky factor when X is positive definite and *try_pd,
-/// else by UpdateWithCongruence (and *try_pd turns false: a non-PD X_j stays so in the Smith iteration).
-void AddCongruence(const ConstRef& A, const MatrixXd& X, double alpha, bool* try_pd, MatrixXd* out) {
-  if (*try_pd && AddCongruenceOfPd(A, X, alpha, out)) return;
+/// lower(*out) += alpha A X A^T for symmetric X (lower triangle read): by the Cholesky factor when X is
+/// positive definite and *try_pd, else by UpdateWithCongruenceLower (and *try_pd turns false: a non-PD X_j
+/// stays so in the Smith iteration).
+void AddCongruence(const ConstRef& A, const MatrixXd& X, double alpha, bool* try_pd, detail::CongruenceWork* work,
+                   MatrixXd* out) {
+  if (*try_pd && detail::AddCongruenceOfPdLower(A, X, alpha, work, out)) return;
   *try_pd = false;
-  detail::UpdateWithCongruence(A, X, alpha, 1.0, out);
+  detail::UpdateWithCongruenceLower(A, X, alpha, 1.0, work, out);
 }
 
-/// *res = X - Q - A X A^T (2.3 or 3 n^3 flops); returns |res|_F / max(|X|_F, tiny).
-double SteinResidualInto(const ConstRef& A, const ConstRef& Q, const MatrixXd& X, MatrixXd* res) {
+/// lower(*X) += A X A^T as AddCongruence, but *A may be overwritten (by A L, the DTRMM done in place: no
+/// copy of A). The Smith iteration squares A_j before it calls this.
+void AddCongruenceConsuming(MatrixXd* A, bool* try_pd, detail::CongruenceWork* work, MatrixXd* X) {
+  const Index n = A->rows();
+  if (*try_pd && n >= 32) {
+    const int nf = detail::FortranInt(n);
+    work->L = *X;
+    int info = 0;
+    dpotrf_("L", &nf, work->L.data(), &nf, &info, 1);
+    if (info == 0) {
+      const double one = 1.0;
+      dtrmm_("R", "L", "N", "N", &nf, &nf, &one, work->L.data(), &nf, A->data(), &nf);  // A <- A L
+      dsyrk_("L", "N", &nf, &nf, &one, A->data(), &nf, &one, X->data(), &nf);           // X += (A L)(A L)^T
+      return;
+    }
+  }
+  *try_pd = false;
+  detail::UpdateWithCongruenceLower(*A, *X, 1.0, 1.0, work, X);
+}
+
+/// The relative residual |X - Q - A X A^T|_F / max(|X|_F, tiny) (2.3 or 3 n^3 flops), X symmetric (lower
+/// triangle read); *res is workspace.
+double SteinResidualLower(const ConstRef& A, const ConstRef& Q, const MatrixXd& X, detail::CongruenceWork* work,
+                          MatrixXd* res) {
   *res = X - Q;
   bool try_pd = true;
-  AddCongruence(A, X, -1.0, &try_pd, res);
-  return res->norm() / std::max(X.norm(), kTiny);
+  AddCongruence(A, X, -1.0, &try_pd, work, res);
+  return detail::LowerFrobeniusNorm(*res) / std::max(detail::LowerFrobeniusNorm(X), kTiny);
 }
 
 // The Schur route costs DGEES (about 25 n^3 flops at a rate well below DGEMM's: measured 60-180 n^3 DGEMM
@@ -76,40 +83,59 @@ double SteinResidualInto(const ConstRef& A, const ConstRef& Q, const MatrixXd& X
 // runs closest to the DGEMM rate (N = 2000, rho(A) = 0.9975: 13 steps, 56 n^3, against about 45 n^3).
 constexpr int kAutoSmithStepsLarge = 11;
 
-bool SolveSteinSmith(const ConstRef& A, const ConstRef& Q, int max_predicted_steps, MatrixXd* X_out,
+/// The step (counted as j in SolveSteinSmith) at which |A_j|_F^2 <= eps is predicted, from log |A_j|_F = log_a
+/// and its drops over the last two squarings. Exponential decay c rho^k doubles the drop with every squaring.
+/// With `power_law` (kAuto for n >= 1000), an early drop that shrinks instead (a power-law transient,
+/// |A^k| ~ k^-p: paper 000's damped wave at N = 2000, whose rho(A) = 0.9975 shows only after k ~ 400; its
+/// drops are 2.2, 1.0, 0.7, 0.6, ...) is extrapolated as constant: there the Smith iteration ran its 11
+/// steps, about as long as the whole Schur route, before giving up. Small random matrices have irregular
+/// early drops, and at n < 1000 a Smith step is cheap against DGEES: the rule is kept to the large case.
+double PredictSmithSteps(int j, double log_a, double drop, double drop_prev, bool power_law) {
+  const double target = 0.5 * std::log(std::numeric_limits<double>::epsilon());
+  if (power_law && j <= 3 && drop_prev > 0.0 && drop < drop_prev) return j + 1 + (log_a - target) / drop;
+  // ln |A_{2^i}| ~ ln c + 2^i ln rho with ln rho = -drop / 2^j (A_{j+1} = A_j^2).
+  const double log_rho = -drop / std::ldexp(1.0, j);
+  const double log_c = log_a - std::ldexp(1.0, j + 1) * log_rho;
+  return std::log2((target - log_c) / log_rho);
+}
+
+bool SolveSteinSmith(const ConstRef& A, const ConstRef& Q, int max_predicted_steps, bool power_law, MatrixXd* X_out,
                      double* relative_residual) {
   const Index n = A.rows();
   const double eps = std::numeric_limits<double>::epsilon();
   MatrixXd Aj = A, X = 0.5 * (Q + Q.transpose()), A2(n, n);
-  double log_a_prev = 0.0;
+  detail::CongruenceWork work{MatrixXd(n, n), MatrixXd(n, n)};
+  double a2 = Aj.squaredNorm(), log_a = 0.5 * std::log(a2), drop_prev = 0.0;
   bool try_pd = true;
   for (int j = 0; j < kSmithMaxSteps; ++j) {
-    const double a2 = Aj.squaredNorm();
     if (!std::isfinite(a2)) return false;
-    if (a2 <= eps) break;                    // X_j is X to rounding
-    AddCongruence(Aj, X, 1.0, &try_pd, &X);  // X += A_j X A_j^T (X is copied/factored before it is written)
-    if (!X.allFinite()) return false;
-    if (a2 * a2 <= eps) break;  // |A_{j+1}|_F^2 <= |A_j|_F^4 <= eps: no further increment
-    if (j + 1 == std::min(kSmithMaxSteps, max_predicted_steps)) return false;  // budget spent
-    A2.noalias() = Aj * Aj;
+    if (a2 <= eps) break;              // X_j is X to rounding
+    const bool last = a2 * a2 <= eps;  // |A_{j+1}|_F^2 <= |A_j|_F^4 <= eps: no further increment
+    if (!last && j + 1 == std::min(kSmithMaxSteps, max_predicted_steps)) return false;  // budget spent
+    if (!last) A2.noalias() = Aj * Aj;                                                  // A_{j+1}
+    AddCongruenceConsuming(&Aj, &try_pd, &work, &X);  // X += A_j X A_j^T (X is copied/factored before it is written)
+    // A PD X_j is a sum of PSD terms: |x_ik| <= sqrt(x_ii x_kk), so a finite diagonal means a finite X_j.
+    if (!(try_pd ? X.diagonal().allFinite() : X.allFinite())) return false;
+    if (last) break;
     Aj.swap(A2);
-    // ln |A_{2^j}| ~ ln c + 2^j ln rho: predict the step at which |A_j|^2 <= eps and give up early
-    // if it lies beyond kSmithMaxSteps (or A_j stops contracting).
-    const double log_a = std::log(Aj.norm());
-    if (std::isinf(log_a) && log_a < 0.0) break;  // A_j = 0 (nilpotent A): X is exact
-    if (!std::isfinite(log_a)) return false;
-    if (j >= 2) {
-      const double log_rho = (log_a - log_a_prev) / std::ldexp(1.0, j);
-      if (!(log_rho < 0.0)) return false;
-      const double log_c = log_a - std::ldexp(1.0, j + 1) * log_rho;
-      const double needed = std::log2((0.5 * std::log(eps) - log_c) / log_rho);
-      if (needed > max_predicted_steps + 1) return false;
+    a2 = Aj.squaredNorm();
+    if (a2 == 0.0) break;  // A_j = 0 (nilpotent A): X is exact
+    const double log_a_next = 0.5 * std::log(a2);
+    if (!std::isfinite(log_a_next)) return false;
+    const double drop = log_a - log_a_next;
+    log_a = log_a_next;
+    // Predict the step at which |A_j|^2 <= eps and give up early if it lies beyond the budget (or A_j
+    // stops contracting).
+    if (j >= 2 || (power_law && j == 1)) {
+      if (!(drop > 0.0)) return false;
+      if (PredictSmithSteps(j, log_a, drop, drop_prev, power_law) > max_predicted_steps + 1) return false;
     }
-    log_a_prev = log_a;
+    drop_prev = drop;
   }
-  MatrixXd res(n, n);
-  const double r = SteinResidualInto(A, Q, X, &res);
+  MatrixXd& res = A2;  // workspace
+  const double r = SteinResidualLower(A, Q, X, &work, &res);
   if (!(r <= 1e-13)) return false;
+  X.triangularView<Eigen::StrictlyUpper>() = X.transpose();
   *relative_residual = r;
   X_out->swap(X);
   return true;
@@ -117,8 +143,10 @@ bool SolveSteinSmith(const ConstRef& A, const ConstRef& Q, int max_predicted_ste
 
 /// |X - A X A^T - Q|_F / max(|X|_F, tiny) (3 n^3 flops).
 double SteinResidual(const ConstRef& A, const ConstRef& Q, const MatrixXd& X) {
-  MatrixXd res(A.rows(), A.rows());
-  return SteinResidualInto(A, Q, X, &res);
+  const Index n = A.rows();
+  MatrixXd res(n, n);
+  detail::CongruenceWork work;
+  return SteinResidualLower(A, Q, X, &work, &res);
 }
 
 /// The Schur method: the real Schur form (LAPACK DGEES) and the recursive blocked Bartels-Stewart solve
@@ -198,6 +226,7 @@ LyapunovSolution SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& 
   LyapunovSolution sol;
   Summary& sum = sol.summary;
   sum.computation = "discrete Lyapunov equation";
+  const bool large_auto = options.method == LyapunovMethod::kAuto && n >= 1000;
   if (n == 0) {
     sol.X.resize(0, 0);
     sol.spectral_radius = 0.0;
@@ -206,9 +235,8 @@ LyapunovSolution SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& 
     sum.method = options.method == LyapunovMethod::kSmith ? "smith" : "schur";
     sum.message = "empty state (n = 0)";
   } else if (options.method != LyapunovMethod::kSchur &&
-             SolveSteinSmith(
-                 A, Q, options.method == LyapunovMethod::kAuto && n >= 1000 ? kAutoSmithStepsLarge : kSmithMaxSteps,
-                 &sol.X, &sum.relative_residual)) {
+             SolveSteinSmith(A, Q, large_auto ? kAutoSmithStepsLarge : kSmithMaxSteps, large_auto, &sol.X,
+                             &sum.relative_residual)) {
     sum.termination = Termination::kConverged;
     sum.method = "smith";
     sum.message = "squared Smith iteration";

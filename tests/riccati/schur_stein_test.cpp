@@ -115,5 +115,59 @@ TEST(SchurStein, ReciprocalPairIsReportedSingular) {
       detail::SolveSteinBySchur(detail::ComputeRealSchur(A2), detail::ComputeRealSchur(B2), MatrixXd::Ones(3, 2), &Y));
 }
 
+// The shared products of the Smith iteration and the DARE (issue 24, h24l): the lower triangle of a symmetric
+// product by recursive blocks against the full product, at seeded random sizes across the base size 64 and
+// odd splits, with a transposed left factor as the doubling uses it; and the congruences on the lower
+// triangle against Eigen's products.
+TEST(SymmetricProducts, LowerTriangleAgreesWithTheFullProduct) {
+  TestRng rng(2425);
+  std::mt19937 pick(25);
+  for (int trial = 0; trial < 6; ++trial) {
+    const int n = trial == 0 ? 1 : std::uniform_int_distribution<int>(2, 300)(pick);
+    const MatrixXd A = rng.Gaussian(n, n), S = rng.Spd(n);
+    const MatrixXd T = S * A;  // A^T T = A^T S A is symmetric
+    const MatrixXd full = A.transpose() * T;
+    MatrixXd lower = MatrixXd::Constant(n, n, 7.0);
+    detail::LowerOfSymmetricProduct(A.transpose(), T, 1.0, false, &lower);
+    MatrixXd acc = MatrixXd::Identity(n, n);
+    detail::LowerOfSymmetricProduct(A.transpose(), T, -2.0, true, &acc);
+    const double scale = full.norm();
+    for (int j = 0; j < n; ++j) {
+      for (int i = j; i < n; ++i) {
+        EXPECT_NEAR(lower(i, j), full(i, j), 1e-13 * scale) << "n = " << n;
+        EXPECT_NEAR(acc(i, j), (i == j ? 1.0 : 0.0) - 2.0 * full(i, j), 3e-13 * scale) << "n = " << n;
+      }
+    }
+    MatrixXd out = S;
+    detail::CongruenceWork work;
+    ASSERT_EQ(detail::AddCongruenceOfPdLower(A, S, 0.5, &work, &out), n >= 32);
+    if (n >= 32) {
+      const MatrixXd expected = S + 0.5 * A * S * A.transpose();
+      MatrixXd got = out.triangularView<Eigen::Lower>();
+      got.triangularView<Eigen::StrictlyUpper>() = got.transpose();
+      EXPECT_LE(RelativeDifference(got, expected), 1e-14) << "n = " << n;
+      EXPECT_NEAR(detail::LowerFrobeniusNorm(out), expected.norm(), 1e-13 * expected.norm());
+    }
+    MatrixXd out2 = S;
+    detail::UpdateWithCongruenceLower(A, S, -1.0, 1.0, &work, &out2);
+    MatrixXd got2 = out2.triangularView<Eigen::Lower>();
+    got2.triangularView<Eigen::StrictlyUpper>() = got2.transpose();
+    EXPECT_LE(RelativeDifference(got2, S - A * S * A.transpose()), 1e-13) << "n = " << n;
+  }
+}
+
+TEST(SymmetricProducts, MatrixPoolHandsBackTheSameBuffer) {
+  detail::MatrixPool pool;
+  MatrixXd a = pool.Take(40, 40);
+  const double* data = a.data();
+  pool.Give(std::move(a));
+  const MatrixXd b = pool.Take(20, 80);  // same number of entries: the same storage, reshaped
+  EXPECT_EQ(b.data(), data);
+  EXPECT_EQ(b.rows(), 20);
+  EXPECT_EQ(b.cols(), 80);
+  const MatrixXd c = pool.Take(40, 40);  // the pool is empty: a new buffer
+  EXPECT_NE(c.data(), data);
+}
+
 }  // namespace
 }  // namespace kfx
