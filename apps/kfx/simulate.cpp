@@ -8,6 +8,7 @@
 #include "kfx/error.hpp"
 #include "kfx/io.hpp"
 #include "kfx/simulation.hpp"
+#include "output.hpp"
 
 namespace kfx::cli {
 

@@ -258,15 +258,16 @@ class LyapunovSolution:
     summary: Summary
 
 class Model:
-    """A validated discrete-time model x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k, x_0 ~ N(m0, P0); the first measurement is y_1. Time-invariant (one ModelStep) or time-varying (a list)."""
+    """A validated discrete-time model x_k = A_k x_{k-1} + G_k g_k + w_k, y_k = C_k x_k + D_k g_k + v_k, cov(w_k, v_k) = S_k, x_0 ~ N(m0, P0); the first measurement is y_1; g_k a known input. Time-invariant (one ModelStep) or time-varying (a list)."""
     P0: numpy.ndarray
     @typing.overload
-    def __init__(self: Model, A: numpy.ndarray, C: numpy.ndarray, *, Q: Optional[numpy.ndarray] = None, R: numpy.ndarray, m0: numpy.ndarray, P0: numpy.ndarray, B: Optional[numpy.ndarray] = None, U: Optional[numpy.ndarray] = None) -> None: ...
+    def __init__(self: Model, A: numpy.ndarray, C: numpy.ndarray, *, Q: Optional[numpy.ndarray] = None, R: numpy.ndarray, m0: numpy.ndarray, P0: numpy.ndarray, B: Optional[numpy.ndarray] = None, U: Optional[numpy.ndarray] = None, G: Optional[numpy.ndarray] = None, D: Optional[numpy.ndarray] = None, S: Optional[numpy.ndarray] = None) -> None: ...
     @typing.overload
     def __init__(self: Model, step: ModelStep, m0: numpy.ndarray, P0: numpy.ndarray) -> None: ...
     @typing.overload
     def __init__(self: Model, steps: List[ModelStep], m0: numpy.ndarray, P0: numpy.ndarray) -> None: ...
     horizon: int
+    input_dim: int
     m0: numpy.ndarray
     meas_dim: int
     state_dim: int
@@ -275,14 +276,18 @@ class Model:
     def with_prior(self: Model, m0: numpy.ndarray, P0: numpy.ndarray) -> Model: """The same model with a different prior. Raises kfx.Error if m0 is not of length n or P0 not n x n"""
 
 class ModelStep:
-    """The matrices of one step: x_k = A x_{k-1} + w_k, w_k ~ N(0, Q) (or w_k = B u_k, u_k ~ N(0, U), Q = B U B^T); y_k = C x_k + v_k, v_k ~ N(0, R)."""
+    """The matrices of one step: x_k = A x_{k-1} + G g_k + w_k, w_k ~ N(0, Q) (or w_k = B u_k, u_k ~ N(0, U), Q = B U B^T); y_k = C x_k + D g_k + v_k, v_k ~ N(0, R), cov(w_k, v_k) = S. g_k is a known input (G, D None: none); S None: 0."""
     A: numpy.ndarray
     B: numpy.ndarray
     C: numpy.ndarray
+    D: numpy.ndarray
+    G: numpy.ndarray
     Q: numpy.ndarray
     R: numpy.ndarray
+    S: numpy.ndarray
     U: numpy.ndarray
-    def __init__(self: ModelStep, A: numpy.ndarray, C: numpy.ndarray, *, Q: Optional[numpy.ndarray] = None, R: numpy.ndarray, B: Optional[numpy.ndarray] = None, U: Optional[numpy.ndarray] = None) -> None: """Validated step (raises kfx.Error naming the matrix at fault)."""
+    def __init__(self: ModelStep, A: numpy.ndarray, C: numpy.ndarray, *, Q: Optional[numpy.ndarray] = None, R: numpy.ndarray, B: Optional[numpy.ndarray] = None, U: Optional[numpy.ndarray] = None, G: Optional[numpy.ndarray] = None, D: Optional[numpy.ndarray] = None, S: Optional[numpy.ndarray] = None) -> None: """Validated step (raises kfx.Error naming the matrix at fault)."""
+    input_dim: int
     meas_dim: int
     state_dim: int
 
@@ -529,7 +534,7 @@ def rts_smooth(model: Model, run: FilterRun, progress: object = None) -> Smoothe
 
 def run_coupled_filter(system: CoupledSystem, kind: str, y: numpy.ndarray, progress: object = None) -> CoupledRun: """Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), 'block-diagonal-naive', 'banded', 'full'. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
-def run_filter(model: Model, y: numpy.ndarray, store_covariances: object = 'diag', update_form: str = 'joseph', form: str = 'conventional', monitor_health: bool = True, progress: object = None) -> FilterRun: """Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting from the prior (m0, P0) at k = 0. store_covariances: 'diag' (default: the diagonals P_filt_diag, P_pred_diag, (T+1) n numbers) or 'full' (also every P_{k|k}, P_{k|k-1} as P_filt, P_pred: 2 (T+1) n^2 numbers; rts_smooth needs them). form: 'conventional', 'sqrt', 'ud' or 'information'. With monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use when the covariances went wrong. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
+def run_filter(model: Model, y: numpy.ndarray, store_covariances: object = 'diag', update_form: str = 'joseph', form: str = 'conventional', monitor_health: bool = True, progress: object = None, input: Optional[numpy.ndarray] = None) -> FilterRun: """Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting from the prior (m0, P0) at k = 0. store_covariances: 'diag' (default: the diagonals P_filt_diag, P_pred_diag, (T+1) n numbers) or 'full' (also every P_{k|k}, P_{k|k-1} as P_filt, P_pred: 2 (T+1) n^2 numbers; rts_smooth needs them). form: 'conventional', 'sqrt', 'ud' or 'information'. input: the known input g (T, q), row k-1 = g_k, required for a model with G or D (a model with S is filtered by the correlated update). With monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use when the covariances went wrong. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def run_kalman_bucy(model: ContinuousModel, T: float, dy: numpy.ndarray, substeps: int = 2) -> tuple: """Returns (z_hat(T), P_c(T))."""
 
@@ -543,7 +548,7 @@ def sampled_model_at(model: ContinuousModel, times: List[float]) -> Model: """Th
 
 def search_error_box(design: ModelStep, ranges: ErrorRanges, refine: bool = True) -> dict: """002 Sec. 6: the largest true tr P of the design's filter and the smallest optimal tr P_F over the box."""
 
-def simulate(model: Model, steps: int = -1, seed: int = 1, progress: object = None) -> tuple: """Draws x_0 ~ N(m0, P0), then x_k, y_k for k = 1..steps. Returns (x (T+1, n), y (T, m)); the same seed gives the same numbers on every platform (and as `kfx simulate`). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
+def simulate(model: Model, steps: int = -1, seed: int = 1, progress: object = None, input: Optional[numpy.ndarray] = None) -> tuple: """Draws x_0 ~ N(m0, P0), then x_k, y_k for k = 1..steps. Returns (x (T+1, n), y (T, m)); the same seed gives the same numbers on every platform (and as `kfx simulate`). input: the known input g (T, q), row k-1 = g_k, for a model with G, D (required then). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def simulate_continuous(model: ContinuousModel, T: float, N: int, seed: int = 1) -> tuple: """Exact simulation on t_i = i T / N: returns (t (N+1,), z (N+1, p), dy (N, r))."""
 

@@ -185,6 +185,10 @@ class ModelFileReader {
       if (rest.compare(0, prefix.size(), prefix) == 0) {
         return "field '" + std::string(name) + "': " + step + rest.substr(prefix.size());
       }
+      const std::string qualified = std::string(name) + " (";  // "S (the joint covariance ...): ..."
+      if (rest.compare(0, qualified.size(), qualified) == 0) {
+        return "field '" + std::string(name) + "': " + step + rest.substr(std::string(name).size() + 1);
+      }
     }
     return what;
   }

@@ -14,7 +14,7 @@ cart="$src/examples/models/driven_cart.json"
 cart_g="$src/examples/models/driven_cart_input.csv"
 
 # 1. Simulation: a deterministic state (Q = 0, P0 = 0, S = 0 written as a field) driven by a known input.
-python3 - "$tmp" <<'PY'
+/usr/bin/python3 - "$tmp" <<'PY'
 import json, sys
 import numpy as np
 tmp = sys.argv[1]
@@ -26,7 +26,7 @@ rng = np.random.default_rng(3)
 np.savetxt(f"{tmp}/det_g.csv", rng.standard_normal((2000, 3)), delimiter=",", header="a,b,c", comments="")
 PY
 "$kfx" simulate "$tmp/det.json" --steps 2000 --seed 9 --input "$tmp/det_g.csv" -o "$tmp/dsim" > /dev/null
-python3 - "$tmp" <<'PY'
+/usr/bin/python3 - "$tmp" <<'PY'
 import json, sys
 import numpy as np
 tmp = sys.argv[1]
@@ -58,14 +58,14 @@ awk 'NR==8{$0="nan"}1' "$tmp/csim/y.csv" > "$tmp/y.csv"
 for form in standard sqrt ud information; do
   "$kfx" filter "$cart" --data "$tmp/y.csv" --input "$cart_g" --form "$form" -o "$tmp/f_$form" > /dev/null
 done
-python3 - "$tmp" "$cart" "$cart_g" <<'PY'
+/usr/bin/python3 - "$tmp" "$cart" "$cart_g" <<'PY'
 import json, sys
 import numpy as np
 tmp, cart, cart_g = sys.argv[1:]
 m = {k: np.array(v, float) for k, v in json.load(open(cart)).items() if k in "A C Q R G D S m0 P0".split()}
 A, C, Q, R, G, D, S = (m[k] for k in "A C Q R G D S".split())
-g = np.loadtxt(cart_g, delimiter=",", skiprows=1).reshape(-1, 1)
-y = np.genfromtxt(f"{tmp}/y.csv", delimiter=",", skip_header=1).reshape(-1, 1)
+g = np.array([float(l) for l in open(cart_g) if l.strip() and l[0] not in "#g"]).reshape(-1, 1)  # comment, header
+y = np.genfromtxt(f"{tmp}/y.csv", delimiter=",").reshape(-1, 1)  # no header; "nan" = missing
 T, n, mm = len(y), 2, 1
 # (x_0, ..., x_T, y_1, ..., y_T) = mean + L xi with xi = (x_0 - m0, (w_1, v_1), ..., (w_T, v_T)).
 N = n + T * (n + mm)
@@ -130,7 +130,7 @@ expect_error() {  # expect_error PATTERN -- ARGS...
   fi
 }
 model_with() {  # model_with NAME FIELD VALUE: driven_cart.json with FIELD replaced
-  python3 - "$cart" "$tmp/$1.json" "$2" "$3" <<'PY'
+  /usr/bin/python3 - "$cart" "$tmp/$1.json" "$2" "$3" <<'PY'
 import json, sys
 src, path, field, value = sys.argv[1:]
 m = json.load(open(src))
