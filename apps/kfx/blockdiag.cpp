@@ -26,6 +26,7 @@ BlockDiagJob MakeJob(const BlockDiagArgs& a) {
   job.kind = ParseEnum<CoupledFilterKind>("--filter", a.filter);
   job.granule = a.granule;
   job.steps = a.steps;
+  job.steady_state_tolerance = a.steady_state_tolerance;
   return job;
 }
 
@@ -34,6 +35,8 @@ void PrintSummary(const BlockDiagJob& job, const BlockDiagSummary& s, double max
             << s.ranks << (s.ranks == 1 ? " rank" : " ranks") << "\n"
             << "  filter time " << max_seconds << " s (slowest rank)";
   if (reduce_seconds >= 0) std::cout << ", of which all-reduce " << reduce_seconds << " s";
+  if (job.steady_state_tolerance > 0)
+    std::cout << "\n  steady state: " << s.steady_state_steps << " steps on the frozen gain";
   std::cout << "\n  output: " << job.out_dir << "/metadata.json\n";
 }
 

@@ -186,6 +186,10 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
       ->check(CLI::IsMember(BlockDiagFilterChoices()));
   AddIntegerOption(c_bd, "--granule", bd.granule, 1, 1000000000ULL, "Subsystems per partition unit (default 1024)");
   AddIntegerOption(c_bd, "--steps", bd.steps, 0, kMaxInt, "Number of steps (default: all rows of the data)");
+  c_bd->add_option("--steady-state-tolerance", bd.steady_state_tolerance,
+                   "Freeze the block-diagonal filter's gain once a step changes its covariance by at most this "
+                   "(relative), then run the steady-state filter; 0 = off (default); one process only")
+      ->check(CLI::Range(0.0, 1e-2));
 
   InfoArgs& info = out->info;
   auto* c_info = app.add_subcommand(

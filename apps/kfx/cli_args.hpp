@@ -56,6 +56,7 @@ struct BlockDiagArgs {
   std::string model, data, out, filter = "block-diagonal";  ///< filter: one of BlockDiagFilterChoices()
   long granule = 1024;
   int steps = -1;
+  double steady_state_tolerance = 0.0;  ///< 0: off
 };
 
 struct InfoArgs {

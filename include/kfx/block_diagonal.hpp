@@ -273,6 +273,10 @@ struct CoupledRun {       ///< A filter run over a coupled system: filtered mean
   TimeSeries coupling;    ///< T x r: mu_u,k (block-diagonal kinds; empty otherwise)
   Eigen::VectorXd trace;  ///< length T+1: trace of the filter's own covariance
   int steady_state_steps = 0;  ///< steps done on the frozen gain (CoupledFilterOptions::steady_state_tolerance)
+  /// The filter's own covariance after the last step (CoupledFilter::P(); for a frozen run, the one the gain
+  /// was frozen at).
+  Eigen::MatrixXd P_filt;
+  Eigen::MatrixXd coupling_cov;  ///< r x r: Sigma_u of the last step (block-diagonal kinds; empty otherwise)
 };
 struct CoupledFilterOptions {
   /// Number of steps T: RunCoupledFilter runs min(T, rows of y) (negative: all rows of y);

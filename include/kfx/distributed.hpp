@@ -162,11 +162,15 @@ struct BlockDiagJob {
   CoupledFilterKind kind = CoupledFilterKind::kBlockDiagonal;  ///< or kBanded
   Eigen::Index granule = 1024;  ///< subsystems per reduction granule (the partition's unit)
   int steps = -1;               ///< negative: all rows of data
+  /// The steady state of the block-diagonal filter (CoupledFilterOptions::steady_state_tolerance; 0 = off,
+  /// range [0, 1e-2]): in one process only (ranks = 1), by RunCoupledFilter on the whole model.
+  double steady_state_tolerance = 0.0;
 };
 struct BlockDiagSummary {
   Eigen::Index n = 0, first = 0, count = 0;
   int steps = 0, ranks = 1;
   double seconds_filter = 0.0;  ///< time in the filter steps on this rank
+  int steady_state_steps = 0;   ///< steps done on the frozen gain (job.steady_state_tolerance)
 };
 /// Runs rank `rank` of `ranks`: reads its slice, filters, writes DIR/x_filt.<first>-<end>.npy (T + 1,
 /// count c) and DIR/P_filt.<first>-<end>.npy (count, c, c); rank 0 also writes DIR/coupling_mean.npy

@@ -62,7 +62,10 @@ class ConvergenceStudy:
 
 class CoupledRun:
     """C++ (include/kfx/block_diagonal.hpp, CoupledRun):"""
+    P_filt: numpy.ndarray
     coupling: numpy.ndarray
+    coupling_cov: numpy.ndarray
+    steady_state_steps: int
     trace: numpy.ndarray
     x_filt: numpy.ndarray
 
@@ -532,7 +535,7 @@ def reproduce(paper: str, quick: bool = False, out_dir: str = '', progress: obje
 
 def rts_smooth(model: Model, run: FilterRun, progress: object = None) -> SmootherRun: """Rauch-Tung-Striebel smoother of a run_filter result (needs store_covariances='full'; raises kfx.Error otherwise). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
-def run_coupled_filter(system: CoupledSystem, kind: str, y: numpy.ndarray, progress: object = None) -> CoupledRun: """Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), 'block-diagonal-naive', 'banded', 'full'. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
+def run_coupled_filter(system: CoupledSystem, kind: str, y: numpy.ndarray, progress: object = None, steady_state_tolerance: float = 0.0) -> CoupledRun: """Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), 'block-diagonal-naive', 'banded', 'full'. steady_state_tolerance > 0 (at most 1e-2; block-diagonal, time-invariant systems): once a step changes the covariance blocks by at most this (relative), the gain is frozen at the fixed point of 004 eq. (19) and the steady-state filter runs (several steps per pass over the subsystems; a row of y with a missing value ends the freeze); run.steady_state_steps counts its steps. Raises kfx.Error for a tolerance out of range or y of the wrong shape. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def run_filter(model: Model, y: numpy.ndarray, store_covariances: object = 'diag', update_form: str = 'joseph', form: str = 'conventional', monitor_health: bool = True, progress: object = None, input: Optional[numpy.ndarray] = None) -> FilterRun: """Runs the Kalman filter over y (T, m) (NaN = missing): predict then update for each row, starting from the prior (m0, P0) at k = 0. store_covariances: 'diag' (default: the diagonals P_filt_diag, P_pred_diag, (T+1) n numbers) or 'full' (also every P_{k|k}, P_{k|k-1} as P_filt, P_pred: 2 (T+1) n^2 numbers; rts_smooth needs them). form: 'conventional', 'sqrt', 'ud' or 'information'. input: the known input g (T, q), row k-1 = g_k, required for a model with G or D (a model with S is filtered by the correlated update). With monitor_health (default) the cheap health checks run (Cholesky of each P_{k|k}, the NIS): the result's .health, and a RuntimeWarning naming the form to use when the covariances went wrong. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 

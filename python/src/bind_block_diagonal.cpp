@@ -79,6 +79,32 @@ py::tuple FilterManyNumpy(const Array& F, const Array& H, const Array& Q, const 
   return py::make_tuple(xs, P);
 }
 
+// kfx.blockdiag.run_coupled_filter (its own function: BindBlockDiagonal stays under the size limit).
+void BindRunCoupledFilter(py::module_& m) {
+  m.def(
+      "run_coupled_filter",
+      [](const CoupledSystem& sys, const std::string& kind, const TimeSeries& y, const py::object& progress,
+         double steady_state_tolerance) {
+        const CoupledFilterKind k = ParseKind(kind);
+        LongCall call(progress);
+        CoupledFilterOptions o;
+        o.progress = call.callback();
+        o.steady_state_tolerance = steady_state_tolerance;
+        return call.Run([&] { return RunCoupledFilter(sys, k, y, o); });
+      },
+      py::arg("system"), py::arg("kind"), py::arg("y"), py::arg("progress") = py::none(),
+      py::arg("steady_state_tolerance") = 0.0,
+      (std::string("Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), "
+                   "'block-diagonal-naive', 'banded', 'full'. steady_state_tolerance > 0 (at most 1e-2; "
+                   "block-diagonal, time-invariant systems): once a step changes the covariance blocks by at most "
+                   "this (relative), the gain is frozen at the fixed point of 004 eq. (19) and the steady-state "
+                   "filter runs (several steps per pass over the subsystems; a row of y with a missing value ends "
+                   "the freeze); run.steady_state_steps counts its steps. Raises kfx.Error for a tolerance out of "
+                   "range or y of the wrong shape.") +
+       kProgressDoc)
+          .c_str());
+}
+
 }  // namespace
 
 void BindBlockDiagonal(py::module_& m) {
@@ -123,21 +149,13 @@ void BindBlockDiagonal(py::module_& m) {
   py::class_<CoupledRun>(m, "CoupledRun")
       .def_readonly("x_filt", &CoupledRun::x_filt, "(T+1, n c)")
       .def_readonly("coupling", &CoupledRun::coupling, "(T, r): posterior mean of the coupling input")
-      .def_readonly("trace", &CoupledRun::trace, "trace of the filter's own covariance, k = 0..T");
-  m.def(
-      "run_coupled_filter",
-      [](const CoupledSystem& sys, const std::string& kind, const TimeSeries& y, const py::object& progress) {
-        const CoupledFilterKind k = ParseKind(kind);
-        LongCall call(progress);
-        CoupledFilterOptions o;
-        o.progress = call.callback();
-        return call.Run([&] { return RunCoupledFilter(sys, k, y, o); });
-      },
-      py::arg("system"), py::arg("kind"), py::arg("y"), py::arg("progress") = py::none(),
-      (std::string("Runs a filter over y (T, n d). kind: 'block-diagonal' (004 eqs. (8)-(17), O(n r^2) per step), "
-                   "'block-diagonal-naive', 'banded', 'full'.") +
-       kProgressDoc)
-          .c_str());
+      .def_readonly("trace", &CoupledRun::trace, "trace of the filter's own covariance, k = 0..T")
+      .def_readonly("steady_state_steps", &CoupledRun::steady_state_steps,
+                    "steps done on the frozen gain (steady_state_tolerance > 0)")
+      .def_readonly("P_filt", &CoupledRun::P_filt,
+                    "the filter's own covariance after the last step (packed (c, n c); (n c, n c) for 'full')")
+      .def_readonly("coupling_cov", &CoupledRun::coupling_cov, "(r, r): Sigma_u of the last step");
+  BindRunCoupledFilter(m);
   m.def(
       "coupled_filter_as_linear_filter",
       [](const CoupledSystem& sys, const std::string& kind, int steps) {

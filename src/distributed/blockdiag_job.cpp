@@ -9,6 +9,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/json_matrix.hpp"
@@ -91,6 +92,17 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
     if (job.kind != CoupledFilterKind::kBlockDiagonal && job.kind != CoupledFilterKind::kBanded) {
       throw Error("kind: expected block-diagonal or banded");
     }
+    const double tol = job.steady_state_tolerance;
+    if (!(tol >= 0.0 && tol <= 1e-2)) {
+      throw Error("steady_state_tolerance: expected a value in [0, 1e-2], got " + std::to_string(tol));
+    }
+    if (tol > 0.0 && job.kind != CoupledFilterKind::kBlockDiagonal) {
+      throw Error("steady_state_tolerance: the steady state is the block-diagonal filter's, not the banded one's");
+    }
+    if (tol > 0.0 && ranks > 1) {
+      throw Error("steady_state_tolerance: the steady state runs in one process, got " + std::to_string(ranks) +
+                  " ranks");
+    }
     h = ReadCoupledModelHeader(job.model);
     part = PartitionByCost(h.n, ranks, job.granule);
     sum.n = h.n;
@@ -122,7 +134,16 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
   const auto t0 = std::chrono::steady_clock::now();
   SlicedRun run;
   try {
-    if (sum.count > 0) {
+    if (sum.count > 0 && job.steady_state_tolerance > 0.0) {  // one rank: the whole model (checked above)
+      CoupledFilterOptions options;
+      options.steady_state_tolerance = job.steady_state_tolerance;
+      CoupledRun whole = RunCoupledFilter(*slice, job.kind, y, options);
+      run.x_filt = std::move(whole.x_filt);
+      run.coupling = std::move(whole.coupling);
+      run.P_filt = std::move(whole.P_filt);
+      run.coupling_cov = std::move(whole.coupling_cov);
+      sum.steady_state_steps = whole.steady_state_steps;
+    } else if (sum.count > 0) {
       run = RunCoupledFilterSlice(*slice, job.kind, sum.first, job.granule, y, reduce);
     } else {
       // An empty slice still takes part in every reduction.
@@ -177,6 +198,8 @@ BlockDiagSummary RunBlockDiagJob(const BlockDiagJob& job, int rank, int ranks, c
     meta["steps"] = sum.steps;
     meta["ranks"] = ranks;
     meta["granule"] = job.granule;
+    meta["steady_state_tolerance"] = job.steady_state_tolerance;
+    meta["steady_state_steps"] = sum.steady_state_steps;
     json slices = json::array();
     for (int p = 0; p < ranks; ++p) {
       const Index f = part.first(p), e = f + part.count(p);

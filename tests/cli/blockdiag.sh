@@ -35,6 +35,44 @@ diff = max(abs(x - y) for x, y in zip(a, b))
 print(f"blockdiag vs kfx filter (U = 0): max |difference| = {diff:.3g}")
 assert diff < 1e-12
 PY
+# --steady-state-tolerance: coupled subsystems (U > 0), 200 steps; after the freeze the estimates equal the
+# running filter's to 1e-10 (relative), and metadata.json counts the steps on the frozen gain.
+sed 's/"U": \[\[0\]\]/"U": [[0.4]]/' "$tmp/coupled.json" > "$tmp/coupled_u.json"
+"$kfx" simulate "$tmp/dense.json" --steps 200 --seed 5 -o "$tmp/sim200" > /dev/null
+"$kfx" blockdiag "$tmp/coupled_u.json" --data "$tmp/sim200/y.npy" -o "$tmp/run" > /dev/null
+"$kfx" blockdiag "$tmp/coupled_u.json" --data "$tmp/sim200/y.npy" -o "$tmp/steady" --steady-state-tolerance 1e-12 \
+  | tee "$tmp/steady.txt"
+grep -q "steps on the frozen gain" "$tmp/steady.txt" || { echo "FAIL: no steady-state line"; exit 1; }
+/usr/bin/python3 - "$tmp/run" "$tmp/steady" <<'PY'
+import ast, json, struct, sys
+def npy(path):
+    b = open(path, "rb").read()
+    n = struct.unpack("<H", b[8:10])[0]
+    h = ast.literal_eval(b[10:10 + n].decode())
+    return h["shape"], struct.unpack("<%dd" % (len(b[10 + n:]) // 8), b[10 + n:])
+run, steady = sys.argv[1], sys.argv[2]
+meta_r, meta_s = (json.load(open(d + "/metadata.json")) for d in (run, steady))
+frozen = meta_s["steady_state_steps"]
+assert meta_r["steady_state_steps"] == 0 and 0 < frozen < 200, (meta_r, meta_s)
+assert meta_s["steady_state_tolerance"] == 1e-12
+(sa, a), (sb, b) = npy(run + "/x_filt.0-6.npy"), npy(steady + "/x_filt.0-6.npy")
+assert sa == sb == (201, 6), (sa, sb)
+after = slice((201 - frozen) * 6, 201 * 6)
+scale = max(abs(v) for v in a[after])
+diff = max(abs(x - y) for x, y in zip(a[after], b[after]))
+print(f"blockdiag --steady-state-tolerance: {frozen} frozen steps, max |difference| = {diff / scale:.3g} (relative)")
+assert diff <= 1e-10 * scale
+PY
+for bad in "--steady-state-tolerance 0.5" "--steady-state-tolerance 1e-10 --filter banded"; do
+  set +e
+  # shellcheck disable=SC2086
+  "$kfx" blockdiag "$tmp/coupled_u.json" --data "$tmp/sim200/y.npy" -o "$tmp/bad" $bad 2> "$tmp/err"
+  rc=$?
+  set -e
+  cat "$tmp/err"
+  [[ $rc -eq 2 ]] || { echo "FAIL: $bad: expected exit code 2, got $rc"; exit 1; }
+  grep -qi "steady.state.tolerance" "$tmp/err" || { echo "FAIL: $bad: no error line naming the option"; exit 1; }
+done
 set +e
 "$kfx" blockdiag "$tmp/coupled.json" --data "$tmp/dense.json" -o "$tmp/bad" 2> "$tmp/err"
 rc=$?

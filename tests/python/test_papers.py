@@ -56,6 +56,23 @@ def test_coupled_filters_fast_equals_naive_and_full_equals_the_dense_kalman_filt
         kfx.blockdiag.CoupledStep(F=step.F, H=step.H, V=-step.V, R=step.R, G=step.G, U=step.U)
 
 
+def test_steady_state_block_diagonal_filter_equals_the_running_one_after_convergence():
+    sys, step = coupled(7, n=600, c=2, d=1, r=3)  # more than one chunk of 512 subsystems
+    _, y, _ = kfx.blockdiag.simulate_coupled(sys, 150, seed=5)
+    running = kfx.blockdiag.run_coupled_filter(sys, "block-diagonal", y)
+    steady = kfx.blockdiag.run_coupled_filter(sys, "block-diagonal", y, steady_state_tolerance=1e-12)
+    assert running.steady_state_steps == 0 and 0 < steady.steady_state_steps < 150
+    after = steady.steady_state_steps
+    scale = np.abs(running.x_filt[-after:]).max()
+    assert np.abs(steady.x_filt[-after:] - running.x_filt[-after:]).max() <= 1e-10 * scale
+    np.testing.assert_allclose(steady.coupling[-after:], running.coupling[-after:], rtol=0,
+                               atol=1e-10 * np.abs(running.coupling).max())
+    for a, b in ((steady.P_filt, running.P_filt), (steady.coupling_cov, running.coupling_cov)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * np.abs(b).max())
+    with pytest.raises(kfx.Error, match="steady_state_tolerance"):
+        kfx.blockdiag.run_coupled_filter(sys, "block-diagonal", y, steady_state_tolerance=0.5)
+
+
 def test_identical_subsystems_reduction_matches_the_dense_dare():
     F = np.array([[0.9, 0.1], [0.0, 0.7]])
     H = np.array([[1.0, 0.0]])

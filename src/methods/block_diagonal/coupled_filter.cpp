@@ -219,6 +219,8 @@ CoupledRun RunCoupledFilter(const CoupledSystem& system, CoupledFilterKind kind,
     if (options.progress) options.progress(k, T);
     ++k;
   }
+  run.P_filt = filter.P();
+  if (coupling) run.coupling_cov = frozen ? frozen->coupling_cov() : filter.coupling_cov();
   return run;
 }
 

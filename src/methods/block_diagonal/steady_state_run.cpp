@@ -11,6 +11,7 @@
 // stream once per L steps where the running filter streams G twice per step. Exact algebra: the
 // estimates are the running filter's with the frozen gain, to rounding.
 #include <algorithm>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -23,6 +24,97 @@ namespace kfx::detail {
 using Eigen::Index;
 using Eigen::MatrixXd;
 
+namespace {
+
+// Subsystems per chunk: a chunk's L innovations (nb d x L), its coupled parts (nb c x L) and its blocks of
+// E^T, Y^T (r x nb (c + d)) stay in cache between the per-subsystem loops and the GEMMs.
+constexpr Index kChunk = 512;
+
+// Sweep 1 for subsystems [0, nb) of a chunk: a_j = F a_{j-1} + J (y_j - H F a_{j-1}), j = 1..L, with a_0
+// read from x0 and a_j written to xj[j - 1] (rows of x_filt, chunk-relative), and the innovations
+// nu_a,j into column j - 1 of NU (nb d x L, column-major). C, D > 0 fix the shape at compile time.
+template <int C, int D>
+void LocalSweep(Index c_rt, Index d_rt, Index nb, int L, const double* F, const double* H, const double* J,
+                const double* x0, double* const* xj, const double* const* yj, double* NU) {
+  const Index c = C > 0 ? C : c_rt, d = D > 0 ? D : d_rt;
+  // a, F a and nu: on the stack for a fixed shape, on the heap for the generic one.
+  double a_s[C > 0 ? C : 1], fa_s[C > 0 ? C : 1], nu_s[D > 0 ? D : 1];
+  const bool fixed = C > 0 && D > 0;
+  std::vector<double> heap(fixed ? 0 : static_cast<size_t>(2 * c + d));
+  double* a = fixed ? a_s : heap.data();
+  double* fa = fixed ? fa_s : heap.data() + c;
+  double* nu = fixed ? nu_s : heap.data() + 2 * c;
+  for (Index i = 0; i < nb; ++i) {
+    const double* Fi = F + i * c * c;  // column-major c x c
+    const double* Hi = H + i * d * c;
+    const double* Ji = J + i * c * d;
+    for (Index p = 0; p < c; ++p) a[p] = x0[i * c + p];
+    for (int j = 0; j < L; ++j) {
+      for (Index p = 0; p < c; ++p) {
+        double acc = 0.0;
+        for (Index q = 0; q < c; ++q) acc += Fi[q * c + p] * a[q];
+        fa[p] = acc;
+      }
+      double* nuj = NU + j * nb * d + i * d;
+      for (Index e = 0; e < d; ++e) {
+        double acc = yj[j][i * d + e];
+        for (Index q = 0; q < c; ++q) acc -= Hi[q * d + e] * fa[q];
+        nu[e] = acc;
+        nuj[e] = acc;
+      }
+      double* out = xj[j] + i * c;
+      for (Index p = 0; p < c; ++p) {
+        double acc = fa[p];
+        for (Index e = 0; e < d; ++e) acc += Ji[e * c + p] * nu[e];
+        a[p] = acc;
+        out[p] = acc;
+      }
+    }
+  }
+}
+
+// Sweep 2 for a chunk: b_j = Fc b_{j-1} + e_j (b_0 = 0) with e_j column j - 1 of EW (nb c x L, column-major,
+// e_j = -E w_j), added to xj[j - 1].
+template <int C>
+void CoupledSweep(Index c_rt, Index nb, int L, const double* Fc, const double* EW, double* const* xj) {
+  const Index c = C > 0 ? C : c_rt;
+  double b_s[C > 0 ? C : 1], nb_s[C > 0 ? C : 1];
+  std::vector<double> heap(C > 0 ? 0 : static_cast<size_t>(2 * c));
+  double* b = C > 0 ? b_s : heap.data();
+  double* bn = C > 0 ? nb_s : heap.data() + c;
+  for (Index i = 0; i < nb; ++i) {
+    const double* Fci = Fc + i * c * c;
+    for (Index p = 0; p < c; ++p) b[p] = 0.0;
+    for (int j = 0; j < L; ++j) {
+      const double* e = EW + j * nb * c + i * c;
+      double* out = xj[j] + i * c;
+      for (Index p = 0; p < c; ++p) {
+        double acc = e[p];
+        for (Index q = 0; q < c; ++q) acc += Fci[q * c + p] * b[q];
+        bn[p] = acc;
+      }
+      for (Index p = 0; p < c; ++p) {
+        b[p] = bn[p];
+        out[p] += bn[p];
+      }
+    }
+  }
+}
+
+// The fixed-shape instances for the common (c, d), else the generic one.
+template <typename Body>
+void DispatchShape(Index c, Index d, Body&& body) {
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  using Gen = std::integral_constant<int, 0>;
+  if (c == 2 && d == 1) return body(Two{}, One{});
+  if (c == 1 && d == 1) return body(One{}, One{});
+  if (c == 2 && d == 2) return body(Two{}, Two{});
+  body(Gen{}, Gen{});
+}
+
+}  // namespace
+
 FrozenBlockDiagonal::FrozenBlockDiagonal(const CoupledStep& s, const MatrixXd& P_filt, int group) : group_(group) {
   KFX_ASSERT(group >= 1);
   BlockDiagonalCovarianceStep st;
@@ -31,29 +123,32 @@ FrozenBlockDiagonal::FrozenBlockDiagonal(const CoupledStep& s, const MatrixXd& P
   const Index n = s.n(), c = s.c(), d = s.d(), r = s.r();
   F_ = s.F;
   H_ = s.H;
+  // Fc_i = (I - J_i H_i) F_i and, per chunk, V_i = H_i F_i Fc_i^m (d x c), Z_i = V_i E_i (d x r, from E^T),
+  // M_m += Y^T Z over the chunk (one GEMM per chunk and m).
   Fc_.resize(c, n * c);
-  MatrixXd HF(d, n * c);
-  for (Index i = 0; i < n; ++i) {
-    const Eigen::Ref<const MatrixXd> F = s.F.middleCols(i * c, c);
-    HF.middleCols(i * c, c).noalias() = s.H.middleCols(i * c, c) * F;
-    Fc_.middleCols(i * c, c) = F;
-    Fc_.middleCols(i * c, c).noalias() -= gain_.J.middleCols(i * d, d) * HF.middleCols(i * c, c);
-  }
-  // M_m, m = 0..group-2, in chunks: V_i = H_i F_i Fc_i^m (d x c), Z_i = E_i^T V_i^T (r x d), M_m += Y_i^T Z_i^T.
   M_.assign(static_cast<size_t>(std::max(group - 1, 0)), MatrixXd::Zero(r, r));
-  if (r == 0) return;
-  constexpr Index kChunk = 4096;
-  MatrixXd Z(r, kChunk * d), V;
+  MatrixXd V(d, kChunk * c), Vn(d, c), Z(kChunk * d, r);
   for (Index i0 = 0; i0 < n; i0 += kChunk) {
     const Index nb = std::min(kChunk, n - i0);
-    V = HF.middleCols(i0 * c, nb * c);
+    for (Index i = 0; i < nb; ++i) {
+      const Index g = i0 + i;
+      const auto F = s.F.middleCols(g * c, c);
+      V.middleCols(i * c, c).noalias() = s.H.middleCols(g * c, c) * F;
+      Fc_.middleCols(g * c, c) = F;
+      Fc_.middleCols(g * c, c).noalias() -= gain_.J.middleCols(g * d, d) * V.middleCols(i * c, c);
+    }
+    if (r == 0) continue;
     for (int m = 0; m + 1 < group; ++m) {
-      for (Index i = 0; i < nb; ++i) {
-        Z.middleCols(i * d, d).noalias() = gain_.Et.middleCols((i0 + i) * c, c) * V.middleCols(i * c, c).transpose();
+      for (Index i = 0; i < nb; ++i) {  // Z rows [i d, (i + 1) d) = V_i E_i = V_i (E_i^T)^T
+        Z.middleRows(i * d, d).noalias() = V.middleCols(i * c, c) * gain_.Et.middleCols((i0 + i) * c, c).transpose();
       }
-      M_[static_cast<size_t>(m)].noalias() += gain_.Yt.middleCols(i0 * d, nb * d) * Z.leftCols(nb * d).transpose();
-      for (Index i = 0; i < nb; ++i)
-        V.middleCols(i * c, c) = (V.middleCols(i * c, c) * Fc_.middleCols((i0 + i) * c, c)).eval();
+      M_[static_cast<size_t>(m)].noalias() += gain_.Yt.middleCols(i0 * d, nb * d) * Z.topRows(nb * d);
+      if (m + 2 < group) {
+        for (Index i = 0; i < nb; ++i) {
+          Vn.noalias() = V.middleCols(i * c, c) * Fc_.middleCols((i0 + i) * c, c);
+          V.middleCols(i * c, c) = Vn;
+        }
+      }
     }
   }
 }
@@ -61,46 +156,29 @@ FrozenBlockDiagonal::FrozenBlockDiagonal(const CoupledStep& s, const MatrixXd& P
 void FrozenBlockDiagonal::Run(const TimeSeries& y, int k0, int L, TimeSeries* x_filt, TimeSeries* coupling) const {
   KFX_ASSERT(L >= 1 && L <= group_);
   const Index c = F_.rows(), d = H_.rows(), r = gain_.C1.rows(), n = c > 0 ? F_.cols() / c : 0;
-  // Sweep 1: the local parts a_j into rows k0 + j, and s_j = sum_i Y_i^T nu_a (r x L).
+  // Per chunk of subsystems: sweep 1 (the local parts a_j into rows k0 + j, their innovations into NU) and
+  // S += Y^T NU (r x L, one GEMM).
   MatrixXd S = MatrixXd::Zero(r, L);
-  std::vector<double> a(static_cast<size_t>(c)), fa(static_cast<size_t>(c)), nu(static_cast<size_t>(d));
-  const double* Fd = F_.data();
-  const double* Hd = H_.data();
-  const double* Jd = gain_.J.data();
-  const double* Yd = gain_.Yt.data();
-  const double* Ed = gain_.Et.data();
-  const double* Fcd = Fc_.data();
-  for (Index i = 0; i < n; ++i) {
-    const double* Fi = Fd + i * c * c;  // column-major c x c
-    const double* Hi = Hd + i * d * c;
-    const double* Ji = Jd + i * c * d;
-    const double* Yi = Yd + i * d * r;  // Y_i^T: r x d, column-major
-    for (Index p = 0; p < c; ++p) a[p] = (*x_filt)(k0, i * c + p);
-    for (int j = 1; j <= L; ++j) {
-      for (Index p = 0; p < c; ++p) {
-        double acc = 0.0;
-        for (Index q = 0; q < c; ++q) acc += Fi[q * c + p] * a[q];
-        fa[p] = acc;
-      }
-      for (Index e = 0; e < d; ++e) {
-        double acc = y(k0 + j - 1, i * d + e);
-        for (Index q = 0; q < c; ++q) acc -= Hi[q * d + e] * fa[q];
-        nu[e] = acc;
-      }
-      double* out = x_filt->row(k0 + j).data() + i * c;
-      for (Index p = 0; p < c; ++p) {
-        double acc = fa[p];
-        for (Index e = 0; e < d; ++e) acc += Ji[e * c + p] * nu[e];
-        a[p] = acc;
-        out[p] = acc;
-      }
-      double* sj = S.col(j - 1).data();
-      for (Index e = 0; e < d; ++e) {
-        const double* ye = Yi + e * r;
-        const double v = nu[e];
-        for (Index t = 0; t < r; ++t) sj[t] += ye[t] * v;
-      }
+  thread_local MatrixXd NU, EW;
+  NU.resize(kChunk * d, L);
+  EW.resize(kChunk * c, L);
+  std::vector<double*> xj(static_cast<size_t>(L));
+  std::vector<const double*> yj(static_cast<size_t>(L));
+  for (Index i0 = 0; i0 < n; i0 += kChunk) {
+    const Index nb = std::min(kChunk, n - i0);
+    for (int j = 0; j < L; ++j) {
+      xj[j] = x_filt->row(k0 + j + 1).data() + i0 * c;
+      yj[j] = y.row(k0 + j).data() + i0 * d;
     }
+    const double* x0 = x_filt->row(k0).data() + i0 * c;
+    DispatchShape(c, d, [&](auto C, auto D) {
+      LocalSweep<decltype(C)::value, decltype(D)::value>(c, d, nb, L, F_.data() + i0 * c * c, H_.data() + i0 * d * c,
+                                                         gain_.J.data() + i0 * c * d, x0, xj.data(), yj.data(),
+                                                         NU.data());
+    });
+    if (r == 0) continue;
+    const Eigen::Map<const MatrixXd, 0, Eigen::OuterStride<>> nu(NU.data(), nb * d, L, Eigen::OuterStride<>(nb * d));
+    S.noalias() += gain_.Yt.middleCols(i0 * d, nb * d) * nu;
   }
   if (r == 0) return;  // no coupling: nothing below (and no products of empty matrices)
   // The r-dimensional recursion: w_j = C_1 (s_j + sum_{l<j} M_{j-1-l} w_l) = mu_u of step k0 + j.
@@ -111,28 +189,16 @@ void FrozenBlockDiagonal::Run(const TimeSeries& y, int k0, int L, TimeSeries* x_
     Wm.col(j - 1).noalias() = gain_.C1 * v;
     if (coupling) coupling->row(k0 + j - 1) = Wm.col(j - 1).transpose();
   }
-  // Sweep 2: b_j = Fc b_{j-1} - E_i w_j added to rows k0 + j.
-  std::vector<double> b(static_cast<size_t>(c)), nb(static_cast<size_t>(c));
-  for (Index i = 0; i < n; ++i) {
-    const double* Fci = Fcd + i * c * c;
-    const double* Ei = Ed + i * c * r;  // E_i^T: r x c, column-major (column p: row p of E_i)
-    std::fill(b.begin(), b.end(), 0.0);
-    for (int j = 1; j <= L; ++j) {
-      const double* w = Wm.col(j - 1).data();
-      double* out = x_filt->row(k0 + j).data() + i * c;
-      for (Index p = 0; p < c; ++p) {
-        double acc = 0.0;
-        for (Index q = 0; q < c; ++q) acc += Fci[q * c + p] * b[q];
-        const double* ep = Ei + p * r;
-        double ew = 0.0;
-        for (Index t = 0; t < r; ++t) ew += ep[t] * w[t];
-        nb[p] = acc - ew;
-      }
-      for (Index p = 0; p < c; ++p) {
-        b[p] = nb[p];
-        out[p] += b[p];
-      }
-    }
+  // Sweep 2 per chunk: EW = -E W (nb c x L, one GEMM), then b_j = Fc b_{j-1} + EW_j added to rows k0 + j.
+  const MatrixXd minus_w = -Wm;
+  for (Index i0 = 0; i0 < n; i0 += kChunk) {
+    const Index nb = std::min(kChunk, n - i0);
+    Eigen::Map<MatrixXd, 0, Eigen::OuterStride<>> ew(EW.data(), nb * c, L, Eigen::OuterStride<>(nb * c));
+    ew.noalias() = gain_.Et.middleCols(i0 * c, nb * c).transpose() * minus_w;
+    for (int j = 0; j < L; ++j) xj[j] = x_filt->row(k0 + j + 1).data() + i0 * c;
+    DispatchShape(c, d, [&](auto C, auto) {
+      CoupledSweep<decltype(C)::value>(c, nb, L, Fc_.data() + i0 * c * c, EW.data(), xj.data());
+    });
   }
 }
 

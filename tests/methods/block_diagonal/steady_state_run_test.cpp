@@ -73,6 +73,33 @@ TEST(SteadyStateBlockDiagonal, EqualsTheRunningFilterAfterConvergence) {
   }
 }
 
+// The steady sweeps run over chunks of 512 subsystems (GEMMs per chunk) and the vectorized kernels of
+// the running filter over groups of 4: sizes on both sides of a chunk boundary, with every remainder
+// modulo 4, for the fixed shapes (c, d) = (2, 1), (1, 1), (2, 2) and a generic one (3, 2).
+TEST(SteadyStateBlockDiagonal, EqualsTheRunningFilterAcrossChunkBoundaries) {
+  const Index shapes[][3] = {{2, 1, 20}, {1, 1, 3}, {2, 2, 5}, {3, 2, 4}};
+  const Index sizes[] = {509, 514, 1027, 1536};
+  int trial = 0;
+  for (const auto& shape : shapes) {
+    for (const Index n : sizes) {
+      if (shape[0] != 2 && n > 1100) continue;  // the large size for the paper's shape only
+      const Index c = shape[0], d = shape[1], r = shape[2];
+      const int T = 90 + trial % 8;
+      SCOPED_TRACE("n = " + std::to_string(n) + ", c = " + std::to_string(c) + ", d = " + std::to_string(d) +
+                   ", r = " + std::to_string(r) + ", T = " + std::to_string(T));
+      TestRng rng(700 + trial);
+      const CoupledSystem sys = RandomSystem(rng, n, c, d, r, 0.5);
+      const TimeSeries y = SimulateCoupled(sys, {T, static_cast<std::uint64_t>(40 + trial)}).y;
+      ++trial;
+      const CoupledRun running = RunWithTolerance(sys, y, 0.0), steady = RunWithTolerance(sys, y, 1e-12);
+      ASSERT_GT(steady.steady_state_steps, 8);
+      const Index after = steady.steady_state_steps;
+      EXPECT_LE(MaxRelative(steady.x_filt.bottomRows(after), running.x_filt.bottomRows(after)), 1e-10);
+      EXPECT_LE(MaxRelative(steady.coupling.bottomRows(after), running.coupling.bottomRows(after)), 1e-10);
+    }
+  }
+}
+
 TEST(SteadyStateBlockDiagonal, IsTheFrozenGainAppliedAsADenseMatrix) {
   TestRng rng(5);
   const Index n = 12, c = 2, d = 1, r = 3;
