@@ -3,6 +3,8 @@
 // for the mass-spring chain an independent discretization (Eigen's matrix exponential).
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include <cmath>
@@ -566,7 +568,7 @@ std::vector<std::string> DocJsonBlocks() {
 
 TEST(ModelFileExamplesTest, DocsWorkedExamplesLoad) {
   const std::vector<std::string> blocks = DocJsonBlocks();
-  ASSERT_EQ(blocks.size(), 4u);
+  ASSERT_EQ(blocks.size(), 5u);
   // 1: the constant-velocity file, verbatim.
   std::ifstream in(kModels + "constant_velocity.json");
   EXPECT_EQ(blocks[0], std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
@@ -581,8 +583,27 @@ TEST(ModelFileExamplesTest, DocsWorkedExamplesLoad) {
   EXPECT_EQ(tv.horizon(), 3);
   EXPECT_EQ(tv.step(3)->R(0, 0), 4.0);
   EXPECT_TRUE(SameBits(tv.step(2)->Q, LoadModel(kModels + "constant_velocity.json").step(1)->Q));
-  // 4: the continuous-time model file, the same model as examples/continuous/oscillator.json.
-  std::ofstream((dir / "osc.json").string()) << blocks[3];
+  // 4: the fields of the driven cart (a fragment: its known input and cross-covariance), the same numbers as
+  // examples/models/driven_cart.json.
+  std::string fragment = blocks[3];
+  fragment.erase(fragment.find_last_of(','));
+  const nlohmann::json fields = nlohmann::json::parse("{" + fragment + "}");
+  const Model cart_model = LoadModel(kModels + "driven_cart.json");
+  const ModelStep& cart = *cart_model.step(1);
+  for (const auto& [name, M] : {std::pair<std::string, const Eigen::MatrixXd*>{"Q", &cart.Q},
+                                {"R", &cart.R},
+                                {"G", &cart.G},
+                                {"D", &cart.D},
+                                {"S", &cart.S}}) {
+    const auto& rows = fields.at(name);
+    ASSERT_EQ(static_cast<Eigen::Index>(rows.size()), M->rows()) << name;
+    for (Eigen::Index i = 0; i < M->rows(); ++i) {
+      ASSERT_EQ(static_cast<Eigen::Index>(rows[i].size()), M->cols()) << name;
+      for (Eigen::Index j = 0; j < M->cols(); ++j) EXPECT_EQ(rows[i][j].get<double>(), (*M)(i, j)) << name;
+    }
+  }
+  // 5: the continuous-time model file, the same model as examples/continuous/oscillator.json.
+  std::ofstream((dir / "osc.json").string()) << blocks[4];
   const ContinuousModelFile doc = LoadContinuousModel((dir / "osc.json").string());
   const ContinuousModelFile file = LoadContinuousModel(kModels + "../continuous/oscillator.json");
   EXPECT_EQ(doc.dt, file.dt);
