@@ -49,8 +49,10 @@ ModelStep RandomStep(testing::TestRng& rng, Index n, Index m, Index q, bool cros
   const MatrixXd F = rng.Gaussian(n + m, n + m) / std::sqrt(static_cast<double>(n + m));
   MatrixXd joint = F * F.transpose();
   joint.diagonal().array() += 0.1;
-  ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), joint.topLeftCorner(n, n),
-                         joint.bottomRightCorner(m, m));
+  // One draw per statement (C, then A: GCC's former argument order), so that every compiler tests the same system.
+  const MatrixXd C = rng.Gaussian(m, n);
+  const MatrixXd A = rng.WithSpectralRadius(n, 0.9);
+  ModelStep s = MakeStep(A, C, joint.topLeftCorner(n, n), joint.bottomRightCorner(m, m));
   if (cross) s.S = joint.topRightCorner(n, m);
   if (q > 0) {
     s.G = rng.Gaussian(n, q);
