@@ -199,13 +199,15 @@ struct KalmanScheduleOptions {
 ///         when a step's covariance cannot be computed.
 KalmanSchedule ComputeKalmanSchedule(const Model& model, const KalmanScheduleOptions& options = {});
 
-/// The Kalman filter as a linear recursion z_k = Phi_k z_{k-1} + K_k y_k with z = x_{k|k}:
-/// Phi_k = (I - K_k C_k) A_k, K_k the filter gain, O = I, z_0 = m0.
+/// The Kalman filter as a linear recursion z_k = Phi_k z_{k-1} + K_k y_k + Gamma_k g_k with z = x_{k|k}:
+/// Phi_k = (I - K_k C_k) A_k, K_k the filter gain, O = I, z_0 = m0, and for a model with a known input
+/// Gamma_k = (I - K_k C_k) G_k - K_k D_k (RunFilter's G g in x_{k|k-1} and D g off y_k; empty without G, D).
 /// @throws kfx::Error if the schedule has no step or more steps than the model defines.
 LinearFilter KalmanAsLinearFilter(const Model& model, const KalmanSchedule& schedule);
 
 /// A time-invariant filter with a constant filter gain K_f (e.g. the steady-state gain from
-/// SolveFilterDare): Phi = (I - K_f C) A, K = K_f, O = I, z_0 = z0.
+/// SolveFilterDare): Phi = (I - K_f C) A, K = K_f, O = I, z_0 = z0, Gamma = (I - K_f C) G - K_f D when the
+/// design step has a known input (G, D).
 /// @throws kfx::Error if filter_gain is not n x m, z0 not of length n, or an entry is not finite.
 LinearFilter ConstantGainAsLinearFilter(const ModelStep& design, const Eigen::Ref<const Eigen::MatrixXd>& filter_gain,
                                         const Eigen::Ref<const Eigen::VectorXd>& z0);

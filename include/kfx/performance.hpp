@@ -1,16 +1,18 @@
 #pragma once
 // The exact-performance engine (mathematics in docs/exact-performance.md): the true mean-square error of
-// any linear filter z_k = Phi_k z_{k-1} + K_k y_k, estimate O_k z_k, run on any true model
-// x_k = A_k x_{k-1} + w_k, y_k = C_k x_k + v_k. The joint second moments of (x_k, z_k) obey
-//   [x_k]   [ A_k          0    ] [x_{k-1}]   [ I        0  ] [w_k]
-//   [z_k] = [ K_k C_k A_k  Phi_k] [z_{k-1}] + [ K_k C_k  K_k] [v_k]
+// any linear filter z_k = Phi_k z_{k-1} + K_k y_k + Gamma_k g_k, estimate O_k z_k, run on any true model
+// x_k = A_k x_{k-1} + G_k g_k + w_k, y_k = C_k x_k + D_k g_k + v_k. The joint second moments of (x_k, z_k) obey
+//   [x_k]   [ A_k          0    ] [x_{k-1}]   [ G_k                      ]       [ I        0  ] [w_k]
+//   [z_k] = [ K_k C_k A_k  Phi_k] [z_{k-1}] + [ K_k (C_k G_k + D_k) + Gamma_k ] g_k + [ K_k C_k  K_k] [v_k]
 // propagated here block by block (Sxx, Sxz, Szz and the means), so the cost per step is that of a
 // few products of the block sizes. With e_k = x_k - O_k z_k:
 //   E[e_k e_k^T] = [I, -O_k] (Sigma_k + mu_k mu_k^T) [I, -O_k]^T,  MSE_k = tr E[e e^T],
-//   weighted MSE_k = tr(W E[e e^T]).
+//   weighted MSE_k = tr(W E[e e^T]) = tr(W Cov e_k) + E[e_k]^T W E[e_k].
 // A true model with a cross-covariance S = E[w_k v_k^T] (kfx/model.hpp) enters through the noise term:
-// its covariance is [[I, 0], [K C, K]] [[Q, S], [S^T, R]] [[I, 0], [K C, K]]^T. A true model with a known
-// input (G, D) is refused (kfx::Error naming truth): the engine does not carry the input's mean terms yet.
+// its covariance is [[I, 0], [K C, K]] [[Q, S], [S^T, R]] [[I, 0], [K C, K]]^T. The known input g (deterministic)
+// moves the means only: a filter that models it exactly (the Kalman filter's Gamma = (I - K C) G - K D) has a
+// zero-mean error and the MSE of the model without input; one that ignores it (no Gamma) or mis-models it has
+// a bias, E[e_k] != 0 (issue 22). The stationary engine refuses a true model with a known input (`truth`).
 // Every method of kfx reports its true error through this one engine.
 #include <Eigen/Dense>
 #include <cstdint>
@@ -47,8 +49,15 @@ struct PerformanceResult {       ///< The exact error statistics of a linear fil
 
 /// Exact finite-horizon performance of `filter` on `truth` (z_0 deterministic, x_0 ~ N(m0, P0)).
 /// @throws kfx::Error if the filter's measurement dimension differs from the model's, its output
-///         dimension from the state dimension, or on an invalid weight/options.
+///         dimension from the state dimension, or on an invalid weight/options; naming g when the truth has a
+///         known input (G, D): use the overload with g.
 PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter,
+                                   const PerformanceOptions& options = PerformanceOptions());
+/// The same on a true model driven by the known input g (T x q, row k-1 = g_k, as RunFilter's; 0 columns when
+/// the truth has no G, D): the means move by G_k g_k, D_k g_k and the filter's Gamma_k g_k.
+/// @throws kfx::Error as above; naming g when it does not fit the truth's G, D (kfx::RequireKnownInput: q
+///         columns, at least T rows, finite); naming filter when its Gamma has columns other than the truth's q.
+PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter, const TimeSeries& g,
                                    const PerformanceOptions& options = PerformanceOptions());
 
 enum class StationaryMethod {
@@ -110,7 +119,9 @@ class StationaryTruth {
 /// otherwise summary.termination is kUnstable (the error is not stationary; use ExactPerformance).
 /// The joint equation is solved block by block on the real Schur forms of A and Phi (recursive blocked
 /// Bartels-Stewart), the error-coordinates equation by SolveDiscreteLyapunov (LyapunovMethod::kSchur).
-/// @throws kfx::Error if either is time-varying, dimensions differ, or the weight is not n x n PSD.
+/// @throws kfx::Error if either is time-varying, dimensions differ, or the weight is not n x n PSD; naming truth
+///         when it has a known input (G, D): the stationary mean depends on the input sequence (use ExactPerformance
+///         with g; the error covariance is that of the model without G, D).
 StationaryPerformance ExactStationaryPerformance(
     const Model& truth, const LinearFilter& filter,
     const StationaryPerformanceOptions& options = StationaryPerformanceOptions());
@@ -150,6 +161,10 @@ struct MonteCarloResult {                     ///< Monte Carlo error statistics 
 /// @throws kfx::Error as ExactPerformance, for runs < 2, or for steps beyond a horizon (or not given when
 ///         model and filter have none).
 MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
+                                       const MonteCarloOptions& options = MonteCarloOptions());
+/// The same with the known input g (as ExactPerformance's): Simulate(truth, g, ...) and RunLinearFilter(filter,
+/// y, g) (a filter without Gamma runs without g). @throws kfx::Error as ExactPerformance with g and as above.
+MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter, const TimeSeries& g,
                                        const MonteCarloOptions& options = MonteCarloOptions());
 
 }  // namespace kfx

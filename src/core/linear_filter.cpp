@@ -8,6 +8,7 @@ namespace kfx {
 
 namespace {
 Eigen::Index OutputDim(const LinearFilterStep& s) { return s.O.size() == 0 ? s.Phi.rows() : s.O.rows(); }
+bool HasGamma(const LinearFilterStep& s) { return s.Gamma.size() > 0 || s.Gamma.cols() > 0 || s.Gamma.rows() > 0; }
 }  // namespace
 
 void LinearFilter::Validate(const LinearFilterStep& s, const std::string& label) const {
@@ -21,6 +22,14 @@ void LinearFilter::Validate(const LinearFilterStep& s, const std::string& label)
     RequireShape(label + "O", s.O, n_out_, n_z_);
     RequireFinite(label + "O", s.O);
   }
+  if (HasGamma(s)) {
+    if (q_ == 0) {
+      throw Error(label + "Gamma: expected none (the filter takes no known input: q = 0), got " +
+                  ShapeString(s.Gamma.rows(), s.Gamma.cols()));
+    }
+    RequireShape(label + "Gamma", s.Gamma, n_z_, q_);
+    RequireFinite(label + "Gamma", s.Gamma);
+  }
 }
 
 LinearFilter::LinearFilter(LinearFilterStep step, Eigen::VectorXd z0, Eigen::MatrixXd O0)
@@ -28,6 +37,7 @@ LinearFilter::LinearFilter(LinearFilterStep step, Eigen::VectorXd z0, Eigen::Mat
       n_z_(step.Phi.rows()),
       m_(step.K.cols()),
       n_out_(OutputDim(step)),
+      q_(step.Gamma.cols()),
       z0_(std::move(z0)),
       O0_(O0.size() == 0 ? step.O : std::move(O0)) {
   Validate(step, "");
@@ -42,6 +52,7 @@ LinearFilter::LinearFilter(std::vector<LinearFilterStep> steps, Eigen::VectorXd 
   n_z_ = steps[0].Phi.rows();
   m_ = steps[0].K.cols();
   n_out_ = OutputDim(steps[0]);
+  q_ = steps[0].Gamma.cols();
   horizon_ = static_cast<int>(steps.size());
   O0_ = O0.size() == 0 ? steps[0].O : std::move(O0);
   RequireVector("z0", z0_, n_z_);
@@ -53,16 +64,18 @@ LinearFilter::LinearFilter(std::vector<LinearFilterStep> steps, Eigen::VectorXd 
 }
 
 LinearFilter::LinearFilter(Eigen::Index n_z, Eigen::Index m, Eigen::Index n_out, StepFunction function,
-                           Eigen::VectorXd z0, Eigen::MatrixXd O0, int horizon)
+                           Eigen::VectorXd z0, Eigen::MatrixXd O0, int horizon, Eigen::Index q)
     : kind_(Kind::kFunction),
       n_z_(n_z),
       m_(m),
       n_out_(n_out),
+      q_(q),
       horizon_(horizon < 0 ? -1 : horizon),
       function_(std::move(function)),
       z0_(std::move(z0)),
       O0_(std::move(O0)) {
   if (!function_) throw Error("function: expected a callable, got an empty std::function");
+  if (q_ < 0) throw Error("q: expected a known input length >= 0, got " + std::to_string(q_));
   RequireVector("z0", z0_, n_z_);
   if (O0_.size() > 0) {
     RequireShape("O0", O0_, n_out_, n_z_);
@@ -83,6 +96,10 @@ Eigen::VectorXd ApplyOutput(const Eigen::MatrixXd& O, const Eigen::VectorXd& z) 
 }
 
 TimeSeries RunLinearFilter(const LinearFilter& filter, const TimeSeries& y) {
+  return RunLinearFilter(filter, y, TimeSeries(0, 0));
+}
+
+TimeSeries RunLinearFilter(const LinearFilter& filter, const TimeSeries& y, const TimeSeries& g) {
   RequireShape("y", y, -1, filter.meas_dim());
   RequireFinite("y", y);
   const int T = static_cast<int>(y.rows());
@@ -90,6 +107,14 @@ TimeSeries RunLinearFilter(const LinearFilter& filter, const TimeSeries& y) {
     throw Error("y: expected at most " + std::to_string(filter.horizon()) + " rows (the filter's horizon), got " +
                 std::to_string(T));
   }
+  const Eigen::Index q = filter.input_dim();
+  if (g.cols() != q || (q > 0 && g.rows() < T)) {
+    throw Error(q == 0 ? "g: expected no known input (the filter has no Gamma), got " + std::to_string(g.cols()) +
+                             " columns"
+                       : "g: expected a known input of " + std::to_string(T) + " rows and " + std::to_string(q) +
+                             " columns (the filter's Gamma), got " + ShapeString(g.rows(), g.cols()));
+  }
+  if (q > 0 && !g.topRows(T).allFinite()) throw Error("g: expected finite entries");
   TimeSeries out(T + 1, filter.output_dim());
   Eigen::VectorXd z = filter.z0();
   out.row(0) = ApplyOutput(filter.O0(), z).transpose();
@@ -98,6 +123,7 @@ TimeSeries RunLinearFilter(const LinearFilter& filter, const TimeSeries& y) {
     const LinearFilterStepPtr s = filter.step(k);
     next.noalias() = s->Phi * z;
     next.noalias() += s->K * y.row(k - 1).transpose();
+    if (s->Gamma.size() > 0) next.noalias() += s->Gamma * g.row(k - 1).transpose();
     z.swap(next);
     out.row(k) = ApplyOutput(s->O, z).transpose();
   }

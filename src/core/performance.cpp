@@ -22,12 +22,13 @@ void CheckCompatible(const Model& truth, const LinearFilter& filter) {
     throw Error("filter: expected an output map to the model's " + std::to_string(truth.state_dim()) + " states, got " +
                 std::to_string(filter.output_dim()) + " outputs");
   }
-  // A known input moves the means of x and z by terms the LinearFilter form does not carry (issue 22: the
-  // engine takes the cross-covariance S, not yet G and D). Refused rather than silently left out.
-  if (truth.input_dim() > 0) {
-    throw Error(
-        "truth: the exact-performance engine does not take a known input (fields G, D) yet; evaluate the "
-        "model without G and D (a filter that models the input exactly has the same error)");
+  // The filter's known-input map Gamma takes the truth's input g (issue 22); a filter without Gamma ignores it.
+  const Eigen::Index q = filter.input_dim();
+  if (q > 0 && q != truth.input_dim()) {
+    throw Error("filter: expected a known-input map Gamma with " + std::to_string(truth.input_dim()) +
+                " columns (the true model's input length q; 0: the truth has no G, D, so give it G = 0 to "
+                "evaluate a filter that assumes an input), got " +
+                std::to_string(q));
   }
 }
 
@@ -85,14 +86,16 @@ int ResolveHorizon(const Model& truth, const LinearFilter& filter, int steps) {
   return T;
 }
 
-// Validates options, dimensions and weight of an evaluation; returns the number of steps T.
+// Validates options, dimensions, weight and the known input g of an evaluation; returns the number of steps T.
 template <typename Options>
-int CheckEvaluation(const Model& truth, const LinearFilter& filter, const Options& options) {
+int CheckEvaluation(const Model& truth, const LinearFilter& filter, const TimeSeries& g, const Options& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   CheckCompatible(truth, filter);
   CheckWeight(options.weight, truth.state_dim(), "options.weight");
-  return ResolveHorizon(truth, filter, options.steps);
+  const int T = ResolveHorizon(truth, filter, options.steps);
+  RequireKnownInput(truth, g, T);
+  return T;
 }
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
@@ -140,8 +143,13 @@ bool MonteCarloOptions::IsValid(std::string* error) const {
 }
 
 PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter, const PerformanceOptions& options) {
+  return ExactPerformance(truth, filter, TimeSeries(0, 0), options);
+}
+
+PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filter, const TimeSeries& g,
+                                   const PerformanceOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const int T = CheckEvaluation(truth, filter, options);
+  const int T = CheckEvaluation(truth, filter, g, options);
   const Eigen::Index n = truth.state_dim();
 
   PerformanceResult res;
@@ -158,12 +166,15 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
   Eigen::VectorXd mx = truth.m0();
   Eigen::VectorXd mz = filter.z0();
 
+  // E[e e^T] = Cov e + b b^T with b = E[e] = mx - O mz: the mean part is added to the error's covariance, not
+  // formed from the second moments of x and z (whose means a known input makes large: no cancellation).
   auto record = [&](int k, const Eigen::MatrixXd& O) {
-    const Eigen::MatrixXd E =
-        ErrorMoment(Sxx + mx * mx.transpose(), Sxz + mx * mz.transpose(), Szz + mz * mz.transpose(), O);
+    const Eigen::VectorXd b = mx - ApplyOutput(O, mz);
+    Eigen::MatrixXd E = ErrorMoment(Sxx, Sxz, Szz, O);
+    E.noalias() += b * b.transpose();
     res.mse(k) = E.trace();
     res.weighted_mse(k) = WeightedTrace(options.weight, E);
-    res.bias.row(k) = (mx - ApplyOutput(O, mz)).transpose();
+    res.bias.row(k) = b.transpose();
     if (options.store_error_moments) res.error_moment.push_back(E);
   };
   record(0, filter.O0());
@@ -172,7 +183,7 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
   for (int k = 1; k <= T; ++k) {
     const StepPtr s = truth.step(k);
     const LinearFilterStepPtr f = filter.step(k);
-    // x' = A x + w;  y' = C x' + v;  z' = K y' + Phi z.
+    // x' = A x + G g + w;  y' = C x' + D g + v;  z' = K y' + Phi z + Gamma g (g moves the means only).
     ASxz.noalias() = s->A * Sxz;  // E[x' z^T]
     tmp.noalias() = s->A * Sxx;
     Sxx = s->Q;
@@ -196,8 +207,13 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
     Sxz.noalias() = Sxy * f->K.transpose();
     Sxz.noalias() += ASxz * f->Phi.transpose();
     // Means.
+    const KnownInputTerms input = KnownInputAt(*s, g, k);
     mx = s->A * mx;
-    mz = (f->Phi * mz + f->K * (s->C * mx)).eval();
+    if (input.state.size() > 0) mx += input.state;
+    Eigen::VectorXd my = s->C * mx;
+    if (input.measurement.size() > 0) my += input.measurement;
+    mz = (f->Phi * mz + f->K * my).eval();
+    if (f->Gamma.size() > 0) mz.noalias() += f->Gamma * g.row(k - 1).transpose();
     record(k, f->O);
     if (options.progress) options.progress(k, T);
   }
@@ -211,8 +227,15 @@ PerformanceResult ExactPerformance(const Model& truth, const LinearFilter& filte
 
 MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter,
                                        const MonteCarloOptions& options) {
+  return MonteCarloPerformance(truth, filter, TimeSeries(0, 0), options);
+}
+
+MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& filter, const TimeSeries& g,
+                                       const MonteCarloOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const int T = CheckEvaluation(truth, filter, options);
+  const int T = CheckEvaluation(truth, filter, g, options);
+  const TimeSeries no_input(0, 0);
+  const TimeSeries& filter_input = filter.input_dim() > 0 ? g : no_input;  // a filter without Gamma ignores g
   const Eigen::Index n = truth.state_dim();
   const int R = options.runs;
 
@@ -225,8 +248,8 @@ MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& f
 
   for (int r = 0; r < R; ++r) {
     Rng rng(Rng::StreamSeed(options.seed, static_cast<std::uint64_t>(r)));
-    const Trajectory tr = Simulate(truth, SimulationOptions{T, options.seed}, rng);
-    const TimeSeries est = RunLinearFilter(filter, tr.y);
+    const Trajectory tr = Simulate(truth, g, SimulationOptions{T, options.seed}, rng);
+    const TimeSeries est = RunLinearFilter(filter, tr.y, filter_input);
     const TimeSeries err = tr.x - est;
     const double cnt = r + 1.0;
     for (int k = 0; k <= T; ++k) {
@@ -267,6 +290,6 @@ MonteCarloResult MonteCarloPerformance(const Model& truth, const LinearFilter& f
 
 namespace kfx::detail {
 int CheckMonteCarloEvaluation(const Model& truth, const LinearFilter& filter, const MonteCarloOptions& options) {
-  return CheckEvaluation(truth, filter, options);
+  return CheckEvaluation(truth, filter, TimeSeries(0, 0), options);
 }
 }  // namespace kfx::detail

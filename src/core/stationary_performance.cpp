@@ -155,6 +155,14 @@ void CheckStationaryFilter(const Model& truth, const LinearFilter& filter,
   std::string why;
   if (!options.IsValid(&why)) throw Error("options." + why);
   detail::CheckCompatible(truth, filter);
+  // A known input moves only the means of x and z, and the stationary mean depends on the input sequence
+  // (docs/exact-performance.md, section 5): refused rather than reported without it.
+  if (truth.input_dim() > 0) {
+    throw Error(
+        "truth: the stationary engine takes no known input (G, D): the error's mean depends on the input "
+        "sequence; evaluate it with ExactPerformance and the input g (the error covariance is that of the model "
+        "without G, D)");
+  }
   detail::CheckWeight(options.weight, truth.state_dim(), "options.weight");
 }
 

@@ -249,6 +249,22 @@ KalmanSchedule ComputeKalmanSchedule(const Model& model, const KalmanScheduleOpt
       .Schedule(model, schedule_options, T);
 }
 
+namespace {
+
+// The Kalman filter's known-input map (issue 22): x_{k|k} = (I - K C)(A x_{k-1|k-1} + G g) + K (y - D g), so
+// Gamma = (I - K C) G - K D = G - K (C G + D); empty when the step has no G, D.
+Eigen::MatrixXd KalmanInputMap(const ModelStep& s, const Eigen::MatrixXd& K) {
+  if (!s.has_known_input()) return Eigen::MatrixXd();
+  const Eigen::Index q = s.input_dim();
+  Eigen::MatrixXd Gamma = s.G.size() > 0 ? s.G : Eigen::MatrixXd::Zero(s.state_dim(), q);
+  Eigen::MatrixXd CGD = s.D.size() > 0 ? s.D : Eigen::MatrixXd::Zero(s.meas_dim(), q);
+  if (s.G.size() > 0) CGD.noalias() += s.C * s.G;
+  Gamma.noalias() -= K * CGD;
+  return Gamma;
+}
+
+}  // namespace
+
 LinearFilter KalmanAsLinearFilter(const Model& model, const KalmanSchedule& schedule) {
   const int T = static_cast<int>(schedule.filter_gain.size()) - 1;
   if (T < 1) throw Error("schedule: expected at least one step");
@@ -261,6 +277,7 @@ LinearFilter KalmanAsLinearFilter(const Model& model, const KalmanSchedule& sche
     f.Phi = s->A;
     f.Phi.noalias() -= K * (s->C * s->A);
     f.K = K;
+    f.Gamma = KalmanInputMap(*s, K);
     steps.push_back(std::move(f));
   }
   return LinearFilter(std::move(steps), model.m0());
@@ -273,6 +290,7 @@ LinearFilter ConstantGainAsLinearFilter(const ModelStep& design, const Eigen::Re
   f.Phi = design.A;
   f.Phi.noalias() -= filter_gain * (design.C * design.A);
   f.K = filter_gain;
+  f.Gamma = KalmanInputMap(design, filter_gain);
   return LinearFilter(std::move(f), z0);
 }
 

@@ -1,7 +1,7 @@
 // The exact-performance engine on a true model with a cross-covariance S = E[w_k v_k^T] (issue 22): the
 // Kalman filter designed with S has its own covariance as true error; a filter that ignores S against Monte
 // Carlo within the interval; the stationary equations (joint and error coordinates) against long horizons;
-// a known input is refused naming the argument.
+// a known input (tests/core/performance_input_test.cpp) is asked for, naming g, when not given.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -115,18 +115,18 @@ TEST(ExactPerformanceWithCrossCovariance, StationaryEquationsMatchLongHorizons) 
   EXPECT_LT(testing::RelativeDifference(su.error_cov, sch.P_filt.back()), 1e-9);
 }
 
-TEST(ExactPerformanceWithCrossCovariance, KnownInputIsRefusedNamingTruth) {
+TEST(ExactPerformanceWithCrossCovariance, KnownInputWithoutGIsAnErrorNamingG) {
   testing::TestRng rng(64);
   ModelStep s = CorrelatedStep(rng, 2, 1, 0.9);
   s.G = MatrixXd::Ones(2, 1);
   const Model truth(s, VectorXd::Zero(2), MatrixXd::Identity(2, 2));
   const LinearFilter f = ConstantGainAsLinearFilter(s, MatrixXd::Zero(2, 1), VectorXd::Zero(2));
-  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ExactPerformance(truth, f, PerformanceOptions{5}); }, "truth"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ExactPerformance(truth, f, PerformanceOptions{5}); }, "g"));
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { ExactStationaryPerformance(truth, f); }, "truth"));
   MonteCarloOptions mo;
   mo.runs = 2;
   mo.steps = 5;
-  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { MonteCarloPerformance(truth, f, mo); }, "truth"));
+  EXPECT_TRUE(testing::ThrowsErrorNaming([&] { MonteCarloPerformance(truth, f, mo); }, "g"));
 }
 
 }  // namespace
