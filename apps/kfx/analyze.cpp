@@ -1,9 +1,11 @@
 // `kfx analyze`: the steady state of a model's filter DARE (covariances, both gains, closed-loop spectral
 // radius, residual, true stationary MSE) and, with --monte-carlo, the exact against the Monte Carlo MSE of
-// the time-varying Kalman filter, designed on MODEL or on --design (a mismatched filter).
+// the time-varying Kalman filter, designed on MODEL or on --design (a mismatched filter), on MODEL driven by
+// the known input --input (a design without G, D ignores it: its error is biased).
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "commands.hpp"
 #include "kfx/error.hpp"
@@ -22,6 +24,14 @@ int RunAnalyze(const AnalyzeArgs& a) {
   if (design.state_dim() != truth.state_dim() || design.meas_dim() != truth.meas_dim()) {
     throw Error("--design: expected a model with the same dimensions as MODEL (" + std::to_string(truth.state_dim()) +
                 " states, " + std::to_string(truth.meas_dim()) + " measurements)");
+  }
+  if (design.input_dim() > 0 && design.input_dim() != truth.input_dim()) {
+    throw Error("--design: expected fields G, D with the " + std::to_string(truth.input_dim()) +
+                " columns of MODEL's known input (or none: a filter that ignores it), got " +
+                std::to_string(design.input_dim()));
+  }
+  if (!a.input.empty() && a.monte_carlo == 0) {
+    throw Error("--input: expected with --monte-carlo (the known input drives the exact and Monte Carlo comparison)");
   }
   nlohmann::ordered_json j;
   j["model"] = a.model;
@@ -51,7 +61,10 @@ int RunAnalyze(const AnalyzeArgs& a) {
       j["P_filt"] = ToJson(dare.P_filt);
       j["filter_gain"] = ToJson(dare.filter_gain);
       j["predictor_gain"] = ToJson(dare.predictor_gain);
-      if (truth.time_invariant()) {
+      if (truth.input_dim() > 0) {
+        std::cout << "  true stationary MSE of the steady-state filter on MODEL: none (MODEL has a known input: "
+                     "the error's mean depends on the input; use --monte-carlo with --input)\n";
+      } else if (truth.time_invariant()) {
         const LinearFilter f = ConstantGainAsLinearFilter(*s, dare.filter_gain, truth.m0());
         const StationaryPerformance st = ExactStationaryPerformance(truth, f);
         if (st.summary.ok()) {
@@ -67,24 +80,26 @@ int RunAnalyze(const AnalyzeArgs& a) {
   }
   if (a.monte_carlo > 0) {
     const int T = a.steps;
+    const TimeSeries g = ReadKnownInput(a.input, truth, T);
     const KalmanSchedule design_schedule = ComputeKalmanSchedule(design, KalmanScheduleOptions{T});
     const LinearFilter f = KalmanAsLinearFilter(design, design_schedule);
     PerformanceOptions po;
     po.steps = T;
     po.store_error_moments = false;
-    const PerformanceResult exact = ExactPerformance(truth, f, po);
+    const PerformanceResult exact = ExactPerformance(truth, f, g, po);
     MonteCarloOptions mo;
     mo.runs = a.monte_carlo;
     mo.steps = T;
     mo.seed = a.seed;
     ProgressLine progress("monte carlo");
     mo.progress = progress.callback();
-    const MonteCarloResult mc = MonteCarloPerformance(truth, f, mo);
+    const MonteCarloResult mc = MonteCarloPerformance(truth, f, g, mo);
     progress.Finish();
     const bool mismatch = !a.design.empty();
     KalmanSchedule optimal;
     if (mismatch) optimal = ComputeKalmanSchedule(truth, KalmanScheduleOptions{T});
     std::cout << "time-varying Kalman filter" << (mismatch ? " designed on " + a.design : "")
+              << (a.input.empty() ? "" : ", input " + a.input)
               << ", true MSE tr E[e_k e_k^T]: exact (engine) vs Monte Carlo (" << mc.runs << " runs, seed " << a.seed
               << ")\n     k        exact  monte carlo      std.err       z";
     if (mismatch) std::cout << "  filter claims  optimal (KF on MODEL)";
@@ -101,6 +116,11 @@ int RunAnalyze(const AnalyzeArgs& a) {
                 << std::setprecision(2) << z;
       nlohmann::ordered_json row = {
           {"k", k}, {"exact", exact.mse(k)}, {"monte_carlo", mc.mse(k)}, {"std_error", mc.mse_std_error(k)}};
+      if (!a.input.empty()) {  // the error's mean E[e_k] (0 for a filter that models the input exactly)
+        std::vector<double> bias(static_cast<size_t>(exact.bias.cols()));
+        for (Eigen::Index i = 0; i < exact.bias.cols(); ++i) bias[static_cast<size_t>(i)] = exact.bias(k, i);
+        row["exact_bias"] = bias;
+      }
       if (mismatch) {
         const double claimed = design_schedule.P_filt[static_cast<size_t>(k)].trace();
         const double best = optimal.P_filt[static_cast<size_t>(k)].trace();

@@ -152,6 +152,9 @@ CommandLineParser::CommandLineParser(const std::vector<std::string>& papers) : i
                    "Also compare exact and Monte Carlo MSE with this many runs");
   AddIntegerOption(c_ana, "--steps", ana.steps, 1, kMaxInt, "Horizon of the exact/Monte Carlo comparison");
   AddIntegerOption(c_ana, "--seed", ana.seed, 0, kMaxU64, "Monte Carlo seed");
+  c_ana->add_option("--input", ana.input,
+                    "Known input g (T, q) as .npy or .csv, row k-1 = g_k, driving MODEL (fields G, D) in the exact "
+                    "and Monte Carlo comparison");
   c_ana->add_option("--json", ana.json, "Write the results as JSON");
 
   MismatchArgs& mis = out->mis;

@@ -35,7 +35,7 @@ struct CompareArgs {
 };
 
 struct AnalyzeArgs {
-  std::string model, design, json;
+  std::string model, design, json, input;
   int monte_carlo = 0;
   int steps = 50;
   std::uint64_t seed = 1;

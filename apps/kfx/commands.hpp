@@ -24,8 +24,8 @@ int RunCompare(const CompareArgs& args);
 /// diagonals, and summary.json.
 int RunSmoothCommand(const FilterArgs& args);
 
-/// `kfx analyze MODEL [--design D] [--monte-carlo N]`: the steady state (DARE) and, optionally, the exact
-/// against the Monte Carlo MSE.
+/// `kfx analyze MODEL [--design D] [--monte-carlo N] [--input G]`: the steady state (DARE) and, optionally, the
+/// exact against the Monte Carlo MSE (with the known input G when MODEL has fields G, D).
 int RunAnalyze(const AnalyzeArgs& args);
 
 /// `kfx mismatch MODEL --ranges R`: worst case over element-wise error ranges and the Patel-Toda bounds.

@@ -135,7 +135,8 @@ std::vector<CompareField> CompareRowFields(const CompareRow& row, bool stationar
 std::vector<CompareField> ComparisonFields(const Comparison& comparison);
 
 /// One row per method (in the order given).
-/// @throws kfx::Error on invalid options or specs (ResolveMethod).
+/// @throws kfx::Error on invalid options or specs (ResolveMethod); naming model when it has a known input
+///         (fields G, D: not taken by compare yet; the engine takes it, ExactPerformance with g).
 Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& methods,
                    const CompareOptions& options = CompareOptions());
 

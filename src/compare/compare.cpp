@@ -124,6 +124,14 @@ Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& 
   std::string error;
   if (!options.IsValid(&error)) throw Error(error);
   const Model& model = truth.model;
+  // A known input would have to reach every method's online run and the timing simulation (issue 22: the engine
+  // takes it, ExactPerformance with g; `kfx analyze --input`); refused here rather than failing inside.
+  if (model.input_dim() > 0) {
+    throw Error(
+        "model: expected a model without a known input (fields G, D): compare does not take the input yet; "
+        "evaluate a filter on it with the exact-performance engine and the input (kfx analyze --input, "
+        "kfx.exact_performance(..., input=))");
+  }
   if (options.weight.size() != 0 &&
       (options.weight.rows() != model.state_dim() || options.weight.cols() != model.state_dim())) {
     throw Error("weight: expected a " + std::to_string(model.state_dim()) + "x" + std::to_string(model.state_dim()) +

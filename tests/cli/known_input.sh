@@ -154,4 +154,65 @@ model_with badS S '[[0.025, 0.05]]'
 expect_error "field 'S'" -- simulate "$tmp/badS.json" --steps 2 --input "$cart_g" -o "$tmp/e8"
 model_with notpsd S '[[1.0], [1.0]]'
 expect_error "field 'S'.*joint covariance" -- simulate "$tmp/notpsd.json" --steps 2 --input "$cart_g" -o "$tmp/e9"
+# 4. `kfx analyze --input`: the exact-performance engine with the known input against Monte Carlo (|z| < 4.5
+# at every printed step) and, for a design that ignores the input (no G, D; S kept), against the error
+# recursion computed here with numpy (an independent algorithm): mean b_k = F_k b_{k-1} + ((I - K C) G - K D) g_k,
+# covariance P_k = F_k P_{k-1} F_k^T + [I - K C, -K] [[Q, S], [S^T, R]] [I - K C, -K]^T, F_k = (I - K_k C) A.
+/usr/bin/python3 - "$tmp" "$cart" <<'PY'
+import json, sys
+import numpy as np
+tmp, cart = sys.argv[1:]
+np.save(f"{tmp}/g30.npy", 2.0 * np.random.default_rng(8).standard_normal((30, 1)))
+m = json.load(open(cart))
+for f in ("G", "D"):
+    del m[f]
+json.dump(m, open(f"{tmp}/cart_plain.json", "w"))
+json.dump(dict(m, G=[[0.5, 0.0], [1.0, 0.0]], D=[[0.5, 0.0]]), open(f"{tmp}/cart_q2.json", "w"))
+PY
+"$kfx" analyze "$cart" --input "$tmp/g30.npy" --monte-carlo 2000 --steps 30 --seed 3 --json "$tmp/a1.json" \
+  > "$tmp/a1.txt"
+"$kfx" analyze "$cart" --design "$tmp/cart_plain.json" --input "$tmp/g30.npy" --monte-carlo 2000 --steps 30 \
+  --seed 4 --json "$tmp/a2.json" > "$tmp/a2.txt"
+grep -q "none (MODEL has a known input" "$tmp/a1.txt"
+/usr/bin/python3 - "$tmp" "$cart" <<'PY'
+import json, sys
+import numpy as np
+tmp, cart = sys.argv[1:]
+m = {k: np.array(v, float) for k, v in json.load(open(cart)).items() if k in "A C Q R G D S m0 P0".split()}
+A, C, Q, R, G, D, S = (m[k] for k in "A C Q R G D S".split())
+g = np.load(f"{tmp}/g30.npy")
+J = np.block([[Q, S], [S.T, R]])
+# Design gains (the design has S, not G, D): the correlated Kalman gain recursion.
+P, b, Pe, exact, bias = m["P0"], np.zeros(2), m["P0"], [np.trace(m["P0"])], [np.zeros(2)]
+for k in range(30):
+    Pp = A @ P @ A.T + Q
+    U = Pp @ C.T + S
+    K = np.linalg.solve(C @ Pp @ C.T + C @ S + S.T @ C.T + R, U.T).T
+    P = Pp - K @ U.T
+    L = np.hstack([np.eye(2) - K @ C, -K])
+    F = (np.eye(2) - K @ C) @ A
+    b = F @ b + ((np.eye(2) - K @ C) @ G - K @ D) @ g[k]
+    Pe = F @ Pe @ F.T + L @ J @ L.T
+    exact.append(np.trace(Pe) + b @ b)
+    bias.append(b)
+for name, ignoring in (("a1", False), ("a2", True)):
+    rows = json.load(open(f"{tmp}/{name}.json"))["monte_carlo"]["rows"]
+    assert len(rows) >= 5, rows
+    for r in rows:
+        z = (r["monte_carlo"] - r["exact"]) / r["std_error"] if r["std_error"] > 0 else 0.0
+        assert abs(z) < 4.5, (name, r)
+        if ignoring:
+            k = r["k"]
+            assert abs(r["exact"] - exact[k]) <= 1e-9 * exact[k], (k, r["exact"], exact[k])
+            np.testing.assert_allclose(r["exact_bias"], bias[k], rtol=1e-9, atol=1e-12)
+        else:
+            assert np.abs(r["exact_bias"]).max() < 1e-10, r  # the filter models the input: zero-mean error
+assert np.abs(bias[30]).max() > 0.1  # ignoring the input is a real bias here
+print("analyze --input ok")
+PY
+expect_error "--input: g: expected a known input" -- analyze "$cart" --monte-carlo 10 --steps 5
+expect_error "--input: expected with --monte-carlo" -- analyze "$cart" --input "$tmp/g30.npy"
+expect_error "--design: expected fields G, D with the 1 columns" -- \
+  analyze "$cart" --design "$tmp/cart_q2.json" --input "$tmp/g30.npy" --monte-carlo 10 --steps 5
+expect_error "model: expected a model without a known input" -- compare "$cart" --method kalman
 exit $fail

@@ -198,6 +198,14 @@ TEST_F(CompareTest, CoupledFiltersFromACoupledModelFile) {
   }
 }
 
+TEST_F(CompareTest, AModelWithAKnownInputIsAnErrorNamingModel) {
+  ModelStep s = *truth_->model.step(1);
+  s.G = MatrixXd::Ones(s.state_dim(), 1);
+  const ComparisonModel driven{Model(s, truth_->model.m0(), truth_->model.P0()), std::nullopt, std::nullopt};
+  EXPECT_TRUE(
+      testing::ThrowsErrorNaming([&] { Compare(driven, {ParseMethodSpec("kalman")}); }, "model", {"known input"}));
+}
+
 TEST_F(CompareTest, EveryBadSpecAgainstTheModelIsOneErrorNamingIt) {
   WriteNpyMatrix(Path("wrong.npy"), MatrixXd::Identity(7, 2));
   WriteNpyMatrix(Path("Lwide.npy"), MatrixXd::Identity(2, 9));
