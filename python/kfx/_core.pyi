@@ -233,15 +233,16 @@ class KroneckerStructured:
     n: int
 
 class LinearFilter:
-    """Any kfx filter as a linear recursion z_k = Phi_k z_{k-1} + K_k y_k, estimate O_k z_k (O empty = identity). Evaluate it with exact_performance."""
+    """Any kfx filter as a linear recursion z_k = Phi_k z_{k-1} + K_k y_k + Gamma_k g_k, estimate O_k z_k (O empty = identity; Gamma empty = the filter ignores the known input g). Evaluate it with exact_performance."""
     @typing.overload
-    def __init__(self: LinearFilter, Phi: numpy.ndarray, K: numpy.ndarray, z0: numpy.ndarray, O: Optional[numpy.ndarray] = None, O0: Optional[numpy.ndarray] = None) -> None: ...
+    def __init__(self: LinearFilter, Phi: numpy.ndarray, K: numpy.ndarray, z0: numpy.ndarray, O: Optional[numpy.ndarray] = None, O0: Optional[numpy.ndarray] = None, Gamma: Optional[numpy.ndarray] = None) -> None: ...
     @typing.overload
     def __init__(self: LinearFilter, steps: List[LinearFilterStep], z0: numpy.ndarray, O0: numpy.ndarray = ...) -> None: ...
     horizon: int
+    input_dim: int
     meas_dim: int
     output_dim: int
-    def run(self: LinearFilter, y: numpy.ndarray) -> numpy.ndarray: """The online part on y (T, m): estimates O_k z_k, k = 0..T, as (T+1, n_out). Raises kfx.Error if y does not have m columns, has a non-finite entry, or has more rows than the filter's horizon."""
+    def run(self: LinearFilter, y: numpy.ndarray, input: Optional[numpy.ndarray] = None) -> numpy.ndarray: """The online part on y (T, m) and the known input g (T, q) for a filter with Gamma: estimates O_k z_k, k = 0..T, as (T+1, n_out). Raises kfx.Error if y does not have m columns, has a non-finite entry, or has more rows than the filter's horizon, or (naming g) when input does not fit the filter's Gamma."""
     state_dim: int
     def step(self: LinearFilter, k: int) -> LinearFilterStep: """The step k >= 1 (Phi_k, K_k, O_k). Raises kfx.Error if k is outside 1..horizon."""
     time_invariant: bool
@@ -249,10 +250,11 @@ class LinearFilter:
 
 class LinearFilterStep:
     """C++ (include/kfx/linear_filter.hpp, LinearFilterStep):"""
+    Gamma: numpy.ndarray
     K: numpy.ndarray
     O: numpy.ndarray
     Phi: numpy.ndarray
-    def __init__(self: LinearFilterStep, Phi: numpy.ndarray, K: numpy.ndarray, O: Optional[numpy.ndarray] = None) -> None: ...
+    def __init__(self: LinearFilterStep, Phi: numpy.ndarray, K: numpy.ndarray, O: Optional[numpy.ndarray] = None, Gamma: Optional[numpy.ndarray] = None) -> None: ...
 
 class LyapunovSolution:
     """C++ (include/kfx/riccati.hpp, LyapunovSolution):"""
@@ -481,7 +483,7 @@ def discretize_process_noise(A: numpy.ndarray, Qc: numpy.ndarray, dt: float) -> 
 
 def discretize_zoh(A: numpy.ndarray, B: numpy.ndarray, dt: float) -> tuple: """Zero-order hold: (Ad, Bd)."""
 
-def exact_performance(truth: Model, filter: LinearFilter, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = True, progress: object = None) -> PerformanceResult: """The exact mean-square error of any linear filter on any true model (the one engine every kfx method reports through), e_k = x_k - O_k z_k. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
+def exact_performance(truth: Model, filter: LinearFilter, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = True, progress: object = None, input: Optional[numpy.ndarray] = None) -> PerformanceResult: """The exact mean-square error of any linear filter on any true model (the one engine every kfx method reports through), e_k = x_k - O_k z_k. input: the known input g (T, q), row k-1 = g_k, required for a truth with G or D (it moves the means: .bias). Raises kfx.Error naming the argument: filter (dimensions, a Gamma of another q), g (input missing or not (T, q), non-finite), weight, steps. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def exact_stationary_performance(truth: Model, filter: LinearFilter, weight: Optional[numpy.ndarray] = None) -> StationaryPerformance: """Stationary error of a time-invariant filter on a time-invariant model."""
 
@@ -511,7 +513,7 @@ def mismatched_covariance_sequence(design: Model, truth: Model, steps: int) -> d
 
 def modeling_errors_between(design: ModelStep, truth: ModelStep) -> ModelingErrors: """design - truth, for two steps of the same dimensions and the same noise input G (both without"""
 
-def monte_carlo_performance(truth: Model, filter: LinearFilter, runs: int = 1000, seed: int = 1, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = False, progress: object = None) -> MonteCarloResult: """Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`); progress counts runs. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
+def monte_carlo_performance(truth: Model, filter: LinearFilter, runs: int = 1000, seed: int = 1, steps: int = -1, weight: Optional[numpy.ndarray] = None, store_error_moments: bool = False, progress: object = None, input: Optional[numpy.ndarray] = None) -> MonteCarloResult: """Monte Carlo estimate of the same quantities (run i uses stream seed i of `seed`); progress counts runs. input: the known input g (T, q), as exact_performance's. Raises kfx.Error as exact_performance, and naming runs (fewer than 2). progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
 def paper_ids() -> List[str]: """The ids accepted by reproduce(), in paper order."""
 

@@ -129,3 +129,59 @@ def test_errors_name_the_argument(driven):
         kfx.run_filter(model, y, input=np.zeros((5, 3)))
     with pytest.raises(kfx.Error, match=r"^g:"):
         kfx.simulate(model, steps=5, input=np.zeros((4, 2)))
+
+
+def test_exact_performance_with_input(driven):
+    """The engine with input= (issue 22): the Kalman filter that models the input has a zero-mean error and
+    the MSE of the model without input; a steady-gain filter that ignores it has the bias of a numpy
+    recursion of the error mean, e_k = F e_{k-1} + ((I - K C) G - K D) g_k; Monte Carlo agrees."""
+    model = kfx.Model(**driven)
+    plain = kfx.Model(**{k: v for k, v in driven.items() if k not in "GD"})
+    T = 20
+    g = 2.0 * np.random.default_rng(6).standard_normal((T, 2))
+    kf = kfx.kalman_as_linear_filter(model, T)
+    assert kf.input_dim == 2
+    with_input = kfx.exact_performance(model, kf, input=g)
+    without = kfx.exact_performance(plain, kfx.kalman_as_linear_filter(plain, T))
+    assert np.abs(with_input.bias).max() < 1e-11
+    np.testing.assert_allclose(with_input.mse, without.mse, rtol=1e-12, atol=0)
+    # The filter's run with the input equals run_filter's estimates.
+    _, y = kfx.simulate(model, steps=T, seed=9, input=g)
+    np.testing.assert_allclose(kf.run(y, input=g), kfx.run_filter(model, y, input=g).x_filt, rtol=1e-10,
+                               atol=1e-10)
+    # A constant-gain filter designed without G, D (no Gamma) is biased.
+    A, C, G, D = driven["A"], driven["C"], driven["G"], driven["D"]
+    K = 0.3 * np.ones((3, 2))
+    ignoring = kfx.constant_gain_as_linear_filter(kfx.ModelStep(A=A, C=C, Q=driven["Q"], R=driven["R"]), K,
+                                                  driven["m0"])
+    assert ignoring.input_dim == 0
+    exact = kfx.exact_performance(model, ignoring, steps=T, input=g)
+    F, H = (np.eye(3) - K @ C) @ A, (np.eye(3) - K @ C) @ G - K @ D
+    b = np.zeros(3)
+    for k in range(1, T + 1):
+        b = F @ b + H @ g[k - 1]
+        np.testing.assert_allclose(exact.bias[k], b, rtol=1e-10, atol=1e-12)
+    mc = kfx.monte_carlo_performance(model, ignoring, runs=2000, seed=4, steps=T, input=g)
+    z = np.abs(mc.mse - exact.mse) / mc.mse_std_error
+    assert z.max() < 4.5 and (z > 1.96).sum() <= 6
+
+
+def test_exact_performance_input_errors_name_the_argument(driven):
+    model = kfx.Model(**driven)
+    kf = kfx.kalman_as_linear_filter(model, 5)
+    with pytest.raises(kfx.Error, match=r"^g:"):
+        kfx.exact_performance(model, kf)  # the truth has G, D: the input is required
+    with pytest.raises(kfx.Error, match=r"^g:"):
+        kfx.exact_performance(model, kf, input=np.zeros((5, 3)))
+    with pytest.raises(kfx.Error, match=r"^g:"):
+        kfx.monte_carlo_performance(model, kf, runs=2, input=np.zeros((4, 2)))
+    with pytest.raises(kfx.Error, match=r"^g:"):
+        kf.run(np.zeros((5, 2)))
+    with pytest.raises(kfx.Error, match=r"^Gamma:"):
+        kfx.LinearFilter(np.eye(3), np.ones((3, 2)), np.zeros(3), Gamma=np.ones((2, 2)))
+    other = kfx.LinearFilter(np.eye(3), np.ones((3, 2)), np.zeros(3), Gamma=np.ones((3, 1)))
+    with pytest.raises(kfx.Error, match=r"^filter:"):
+        kfx.exact_performance(model, other, input=np.zeros((5, 2)))
+    with pytest.raises(kfx.Error, match=r"^truth:"):
+        kfx.exact_stationary_performance(model, kfx.constant_gain_as_linear_filter(model.step(1), np.zeros((3, 2)),
+                                                                                     np.zeros(3)))
