@@ -1,10 +1,12 @@
 // FilterMany: n independent small Kalman filters (004's subsystems with U = 0), the "vectorise over
 // pixels" case. The filters run in chunks of kLanes: a chunk's model blocks are copied once into
-// structure-of-arrays scratch, its states stay in L1 over all T steps, and each step is one
-// branch-free loop over the lanes that GCC vectorizes (AVX2/FMA when the CPU has them, chosen at run
-// time). Per filter and step the memory traffic is the measurement read and the estimate written.
+// structure-of-arrays scratch, its states stay in L1 over all T steps, and each step runs V filters at
+// a time in vector registers, one filter per element (AVX-512, AVX2/FMA or SSE2, chosen at run time).
+// Per filter and step the memory traffic is the measurement read and the estimate written.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -37,116 +39,167 @@ struct Lanes {
   std::vector<double> F, H, Q, R, x, P;
 };
 
-// One step of filters [0, nb) of a chunk: predict, mask the missing components (as
+// Vectors of V doubles (GCC/Clang vector extensions): one filter per element, so that the whole step of
+// V filters stays in registers. Loads and stores go through memcpy (no alignment assumed).
+template <int V>
+struct VecOf {
+  typedef double type __attribute__((vector_size(8 * V)));  // (an alias template would drop the attribute)
+};
+template <int V>
+using Vec = typename VecOf<V>::type;
+
+// Load, Store and ChunkStep are always inlined into the kernels compiled for the CPU (target attributes
+// below): the by-value vector ABI that -Wpsabi warns about never applies.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+template <int V>
+[[gnu::always_inline]] inline Vec<V> Load(const double* p) {
+  Vec<V> r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+
+template <int V>
+[[gnu::always_inline]] inline void Store(double* p, const Vec<V>& v) {
+  std::memcpy(p, &v, sizeof v);
+}
+
+// One step of the kLanes filters of a chunk, V at a time: predict, mask the missing components (as
 // MaskMissingMeasurements: H row and R's correlations dropped, y 0), the standard update
 // P = P_pred - U S^{-1} U^T with U = P_pred H^T (lower triangle, mirrored). y: the chunk's
-// measurements (lane j's at y[j D + e]); xo: the chunk's estimates (lane j's at xo[j C + a]).
-template <int C, int D>
+// measurements (lane j's at y[j D + e], j < nb); xo: the chunk's estimates (lane j's at xo[j C + a]).
+// Lanes nb..kLanes-1 of a last, partial chunk hold a valid filter (lane setup) and see a missing
+// measurement; their results are not copied out.
+template <int C, int D, int V>
 [[gnu::always_inline]] inline void ChunkStep(Lanes& L, Index nb, const double* y, double* xo) {
   static_assert(D == 1 || D == 2, "fixed-shape update for D <= 2");
+  static_assert(kLanes % V == 0, "whole vectors per chunk");
+  using Vd = Vec<V>;
+  static_assert(sizeof(Vd) == 8 * V, "a vector of V doubles");
+  constexpr Index W = kLanes;
   const double* F = L.F.data();
   const double* H = L.H.data();
   const double* Q = L.Q.data();
   const double* R = L.R.data();
   double* X = L.x.data();
   double* P = L.P.data();
-  constexpr Index W = kLanes;
-  for (Index j = 0; j < nb; ++j) {
-    double x[C], p[C][C], xp[C], fp[C][C], pp[C][C];
-    for (int a = 0; a < C; ++a) x[a] = X[a * W + j];
+  alignas(64) double yl[D][W];
+  alignas(64) double xl[C][W];
+  for (int e = 0; e < D; ++e) {
+    for (Index j = 0; j < nb; ++j) yl[e][j] = y[j * D + e];
+    for (Index j = nb; j < W; ++j) yl[e][j] = std::numeric_limits<double>::quiet_NaN();
+  }
+  const Vd zero = {}, one = zero + 1.0;
+  for (Index j = 0; j < W; j += V) {
+    Vd x[C], p[C][C], xp[C], fp[C][C], pp[C][C];
+    for (int a = 0; a < C; ++a) x[a] = Load<V>(X + a * W + j);
     for (int a = 0; a < C; ++a)
-      for (int b = 0; b < C; ++b) p[a][b] = P[(a * C + b) * W + j];
+      for (int b = 0; b < C; ++b) p[a][b] = Load<V>(P + (a * C + b) * W + j);
+    Vd f[C][C];  // f[a][b] = F(a, b); F column-major
+    for (int a = 0; a < C; ++a)
+      for (int b = 0; b < C; ++b) f[a][b] = Load<V>(F + (b * C + a) * W + j);
     for (int a = 0; a < C; ++a) {
-      double acc = 0.0;
-      for (int b = 0; b < C; ++b) acc += F[(b * C + a) * W + j] * x[b];  // F column-major
+      Vd acc = zero;
+      for (int b = 0; b < C; ++b) acc += f[a][b] * x[b];
       xp[a] = acc;
     }
     for (int a = 0; a < C; ++a)
       for (int b = 0; b < C; ++b) {
-        double acc = 0.0;
-        for (int q = 0; q < C; ++q) acc += F[(q * C + a) * W + j] * p[q][b];
+        Vd acc = zero;
+        for (int q = 0; q < C; ++q) acc += f[a][q] * p[q][b];
         fp[a][b] = acc;
       }
     for (int a = 0; a < C; ++a)
       for (int b = 0; b <= a; ++b) {
-        double acc = Q[(b * C + a) * W + j];
-        for (int q = 0; q < C; ++q) acc += fp[a][q] * F[(q * C + b) * W + j];
-        pp[a][b] = pp[b][a] = acc;
+        Vd acc = Load<V>(Q + (b * C + a) * W + j);
+        for (int q = 0; q < C; ++q) acc += fp[a][q] * f[b][q];
+        pp[a][b] = acc;
+        pp[b][a] = acc;
       }
-    double h[D][C], ye[D], m[D];
+    Vd h[D][C], ye[D], m[D];
     for (int e = 0; e < D; ++e) {
-      const double v = y[j * D + e];
-      m[e] = v == v ? 1.0 : 0.0;  // NaN: missing
-      ye[e] = v == v ? v : 0.0;
-      for (int q = 0; q < C; ++q) h[e][q] = m[e] * H[(q * D + e) * W + j];
+      const Vd v = Load<V>(yl[e] + j);
+      const auto ok = v == v;  // NaN: missing
+      m[e] = ok ? one : zero;
+      ye[e] = ok ? v : zero;
+      for (int q = 0; q < C; ++q) h[e][q] = m[e] * Load<V>(H + (q * D + e) * W + j);
     }
-    double u[C][D], s[D][D], nu[D];
+    Vd u[C][D], s[D][D], nu[D];
     for (int a = 0; a < C; ++a)
       for (int e = 0; e < D; ++e) {
-        double acc = 0.0;
+        Vd acc = zero;
         for (int q = 0; q < C; ++q) acc += pp[a][q] * h[e][q];
         u[a][e] = acc;
       }
     for (int e = 0; e < D; ++e) {
-      double acc = ye[e];
+      Vd acc = ye[e];
       for (int q = 0; q < C; ++q) acc -= h[e][q] * xp[q];
       nu[e] = acc;
-      for (int f = 0; f < D; ++f) {
-        double sf = R[(f * D + e) * W + j] * (e == f ? 1.0 : m[e] * m[f]);
-        for (int q = 0; q < C; ++q) sf += h[e][q] * u[q][f];
-        s[e][f] = sf;
+      for (int g = 0; g < D; ++g) {
+        Vd sf = Load<V>(R + (g * D + e) * W + j);
+        if (e != g) sf *= m[e] * m[g];
+        for (int q = 0; q < C; ++q) sf += h[e][q] * u[q][g];
+        s[e][g] = sf;
       }
     }
-    double si[D][D];
+    Vd si[D][D];
     if constexpr (D == 1) {
-      si[0][0] = 1.0 / s[0][0];
+      si[0][0] = one / s[0][0];
     } else {
-      const double inv_det = 1.0 / (s[0][0] * s[1][1] - s[0][1] * s[1][0]);
+      const Vd inv_det = one / (s[0][0] * s[1][1] - s[0][1] * s[1][0]);
       si[0][0] = s[1][1] * inv_det;
       si[1][1] = s[0][0] * inv_det;
       si[0][1] = si[1][0] = -0.5 * (s[0][1] + s[1][0]) * inv_det;
     }
-    double k[C][D];
-    for (int a = 0; a < C; ++a)
-      for (int e = 0; e < D; ++e) {
-        double acc = 0.0;
-        for (int f = 0; f < D; ++f) acc += u[a][f] * si[f][e];
-        k[a][e] = acc;
-      }
     for (int a = 0; a < C; ++a) {
-      double acc = xp[a];
-      for (int e = 0; e < D; ++e) acc += k[a][e] * nu[e];
-      X[a * W + j] = acc;
-      xo[j * C + a] = acc;
-    }
-    for (int a = 0; a < C; ++a)
-      for (int b = 0; b <= a; ++b) {
-        double acc = pp[a][b];
-        for (int e = 0; e < D; ++e) acc -= k[a][e] * u[b][e];
-        P[(a * C + b) * W + j] = acc;
-        P[(b * C + a) * W + j] = acc;
+      Vd k[D];
+      for (int e = 0; e < D; ++e) {
+        Vd acc = zero;
+        for (int g = 0; g < D; ++g) acc += u[a][g] * si[g][e];
+        k[e] = acc;
       }
+      Vd xa = xp[a];
+      for (int e = 0; e < D; ++e) xa += k[e] * nu[e];
+      Store<V>(X + a * W + j, xa);
+      Store<V>(xl[a] + j, xa);
+      for (int b = 0; b <= a; ++b) {
+        Vd acc = pp[a][b];
+        for (int e = 0; e < D; ++e) acc -= k[e] * u[b][e];
+        Store<V>(P + (a * C + b) * W + j, acc);
+        Store<V>(P + (b * C + a) * W + j, acc);
+      }
+    }
   }
+  for (Index j = 0; j < nb; ++j)
+    for (int a = 0; a < C; ++a) xo[j * C + a] = xl[a][j];
 }
 
-// All T steps of one chunk (the chunk's lanes already loaded).
-template <int C, int D>
+#pragma GCC diagnostic pop
+
+// All T steps of one chunk (the chunk's lanes already loaded), V filters per vector.
+template <int C, int D, int V>
 [[gnu::always_inline]] inline void ChunkRun(Lanes& L, Index i0, Index nb, const Eigen::Ref<const TimeSeries>& y,
                                             Eigen::Ref<TimeSeries>& xo) {
   for (Index t = 0; t < y.rows(); ++t)
-    ChunkStep<C, D>(L, nb, y.data() + t * y.outerStride() + i0 * D, xo.data() + t * xo.outerStride() + i0 * C);
+    ChunkStep<C, D, V>(L, nb, y.data() + t * y.outerStride() + i0 * D, xo.data() + t * xo.outerStride() + i0 * C);
 }
 
 template <int C, int D>
 void ChunkRunDefault(Lanes& L, Index i0, Index nb, const Eigen::Ref<const TimeSeries>& y, Eigen::Ref<TimeSeries>& xo) {
-  ChunkRun<C, D>(L, i0, nb, y, xo);
+  ChunkRun<C, D, 2>(L, i0, nb, y, xo);  // SSE2 on x86-64
 }
 #if KFX_MANY_X86
 template <int C, int D>
 __attribute__((target("avx2,fma"))) void ChunkRunAvx2(Lanes& L, Index i0, Index nb,
                                                       const Eigen::Ref<const TimeSeries>& y,
                                                       Eigen::Ref<TimeSeries>& xo) {
-  ChunkRun<C, D>(L, i0, nb, y, xo);
+  ChunkRun<C, D, 4>(L, i0, nb, y, xo);
+}
+template <int C, int D>
+__attribute__((target("avx512f"))) void ChunkRunAvx512(Lanes& L, Index i0, Index nb,
+                                                       const Eigen::Ref<const TimeSeries>& y,
+                                                       Eigen::Ref<TimeSeries>& xo) {
+  ChunkRun<C, D, 8>(L, i0, nb, y, xo);
 }
 #endif
 
@@ -155,7 +208,9 @@ using ChunkFn = void (*)(Lanes&, Index, Index, const Eigen::Ref<const TimeSeries
 template <int C, int D>
 ChunkFn Pick() {
 #if KFX_MANY_X86
+  static const bool avx512 = __builtin_cpu_supports("avx512f");
   static const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  if (avx512) return &ChunkRunAvx512<C, D>;
   if (avx2) return &ChunkRunAvx2<C, D>;
 #endif
   return &ChunkRunDefault<C, D>;
@@ -278,6 +333,8 @@ void FilterMany(const ManyFilterModel& model, const Eigen::Ref<const TimeSeries>
   for (auto* v : {&L.F, &L.Q, &L.P}) v->assign(c * c * kLanes, 0.0);
   L.H.assign(d * c * kLanes, 0.0);
   L.R.assign(d * d * kLanes, 0.0);
+  for (Index e = 0; e < d; ++e)  // lanes past n hold R = I (a valid filter that sees no measurement)
+    std::fill_n(L.R.begin() + (e * d + e) * kLanes, kLanes, 1.0);
   L.x.assign(c * kLanes, 0.0);
   for (Index i0 = 0; i0 < n; i0 += kLanes) {
     const Index nb = std::min(kLanes, n - i0);
