@@ -138,8 +138,8 @@ struct LyapunovSolution {  ///< The solution X (n x n) of a discrete Lyapunov eq
 /// Discrete Lyapunov (Stein) equation X = A X A^T + Q. Solvable when no two eigenvalues of A have
 /// product 1; for stable A (rho < 1) X is the stationary covariance of x_k = A x_{k-1} + w_k and PSD
 /// when Q is. Squared Smith iteration: X_0 = Q, A_0 = A, X_{j+1} = X_j + A_j X_j A_j^T, A_{j+1} = A_j^2
-/// (about 43 n^3 GEMM flops at rho = 0.95); Schur: DGEES (~25 n^3 flops) and a recursive blocked
-/// Bartels-Stewart solve (~9 n^3 flops in matrix products, the transformations included).
+/// (about 37 n^3 flops at rho = 0.95, its last terms in single precision); Schur: DGEES (~25 n^3 flops) and a recursive
+/// blocked Bartels-Stewart solve (~9 n^3 flops in matrix products, the transformations included).
 /// @param A n x n, @param Q n x n symmetric.
 /// @throws kfx::Error on invalid input. A singular equation is summary.termination kSingular.
 LyapunovSolution SolveDiscreteLyapunov(const Eigen::Ref<const Eigen::MatrixXd>& A,

@@ -141,6 +141,40 @@ TEST(LyapunovKronecker, SmithBlasPathAgreesAtRandomSizes) {
   }
 }
 
+// The single-precision tail of the Smith iteration (the last two terms of the rest in SGEMM/SSYRK when
+// their rounding and what they leave out are below eps/4 |X|): at seeded sizes and the benchmark's
+// rho = 0.95, the path is taken, the residual stays at double precision (<= 1e-14) and X agrees with the
+// Schur route (an independent method) and, at the smallest size, with the Kronecker solve. At rho = 0.99
+// (n = 120) the test (a) fails at the step where the tail would start: the full iteration runs.
+TEST(LyapunovRandom, SinglePrecisionTailKeepsDoublePrecisionResidual) {
+  TestRng rng(2425);
+  std::mt19937 pick(2425);
+  for (int trial = 0; trial < 3; ++trial) {
+    const int n = trial == 0 ? std::uniform_int_distribution<int>(40, 48)(pick)
+                             : std::uniform_int_distribution<int>(100, 220)(pick);
+    for (double rho : {0.9, 0.95, 0.99}) {
+      const MatrixXd A = rng.WithSpectralRadius(n, rho);
+      const MatrixXd Q = rng.Spd(n);
+      const LyapunovSolution sol = SolveDiscreteLyapunov(A, Q);
+      ASSERT_TRUE(sol.summary.ok()) << sol.summary.message;
+      ASSERT_EQ(sol.summary.method, "smith") << "n = " << n << ", rho = " << rho;
+      const bool tail = sol.summary.message.find("single precision") != std::string::npos;
+      if (rho <= 0.95) {
+        EXPECT_TRUE(tail) << sol.summary.message << " n = " << n << ", rho = " << rho;
+      }
+      const double residual = (sol.X - A * sol.X * A.transpose() - Q).norm() / sol.X.norm();
+      EXPECT_LE(residual, 1e-14) << "n = " << n << ", rho = " << rho << ", " << sol.summary.message;
+      EXPECT_NEAR(sol.summary.relative_residual, residual, 1e-15);
+      EXPECT_EQ(sol.X, sol.X.transpose());
+      EXPECT_LE(RelativeDifference(sol.X, SolveDiscreteLyapunov(A, Q, Schur()).X), 1e-12)
+          << "n = " << n << ", rho = " << rho;
+      if (trial == 0) {
+        EXPECT_LE(RelativeDifference(sol.X, KroneckerSolve(A, Q, true)), 1e-12) << "n = " << n << ", rho = " << rho;
+      }
+    }
+  }
+}
+
 TEST(LyapunovRandom, PsdRankDeficientNoiseGivesPsdSolution) {
   TestRng rng(23);
   const int n = 30;
