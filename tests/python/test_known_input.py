@@ -182,12 +182,14 @@ def test_mismatch_with_s_and_an_ignored_input_scalar_closed_form():
     mean = -(1 - k) * h * g / (1 - F)
     assert st.error_mean[0] == pytest.approx(mean, abs=1e-13)
     assert st.trace == pytest.approx(cov + mean * mean, abs=1e-12)
-    # The sequence from the design's steady state converges to it (the same input at every step).
+    # On the design's steady-state gain (the default), the sequence from the design's steady state converges
+    # to the stationary solution (the same input at every step).
+    st = kfx.mismatch.stationary_mismatched_covariance(design, truth, input=[g])
     dare = kfx.solve_filter_dare([[a]], [[1.0]], [[q]], [[r]])
     dm = kfx.Model(A=[[a]], C=[[1.0]], Q=[[q]], R=[[r]], m0=[0.0], P0=dare.P_filt)
     tm = kfx.Model(A=[[a]], C=[[1.0]], Q=[[q]], R=[[r]], G=[[h]], D=[[0.0]], S=[[s]], m0=[0.0], P0=[[1.0]])
     seq = kfx.mismatch.mismatched_covariance_sequence(dm, tm, 200, input=np.full((200, 1), g))
-    assert seq["error_mean"][-1, 0] == pytest.approx(mean, abs=1e-9)
+    assert seq["error_mean"][-1, 0] == pytest.approx(st.error_mean[0], abs=1e-9)
     assert seq["trace"][-1] == pytest.approx(st.trace, rel=1e-9)
     with pytest.raises(kfx.Error, match="^g: "):
         kfx.mismatch.mismatched_covariance_sequence(dm, tm, 5)
