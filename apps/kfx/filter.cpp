@@ -22,7 +22,7 @@ namespace {
 int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
   const Model model = LoadModelOrSampled(a.model);  // a continuous-time file: its sampled equivalent
   const TimeSeries y = ReadTimeSeries(a.data);
-  ProgressLine progress(smooth ? "smooth" : "filter");
+  ProgressLine progress(smooth ? "smooth (forward pass)" : "filter");
   FilterRunOptions opt;
   opt.store_covariances = smooth;
   // Health checks by default (docs/robustness.md, class 8): a wrong covariance is never silent.
@@ -34,7 +34,12 @@ int RunFilterOrSmooth(const FilterArgs& a, bool smooth) {
   const FilterRun run = RunFilter(model, y, g, opt);
   progress.Finish();
   std::optional<SmootherRun> sm;
-  if (smooth) sm = RtsSmooth(model, run);
+  if (smooth) {
+    ProgressLine backward("smooth (backward pass)");  // on a terminal only, as the forward pass
+    SmootherOptions so;
+    so.progress = backward.callback();
+    sm = RtsSmooth(model, run, so);
+  }
   // Estimates and covariances that overflowed are an error, not files (innovations may hold NaN: missing data).
   auto require_finite = [](const char* name, const TimeSeries& ts) {
     if (!ts.allFinite()) {

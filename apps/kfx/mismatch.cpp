@@ -67,8 +67,13 @@ int RunMismatch(const MismatchArgs& a) {
   b.summary.RequireOk();
   ErrorBoxSearchOptions so;
   so.refine = !a.no_refine;
-  const ErrorBoxSearch box = SearchErrorBox(design, ranges, MismatchOptions(), so);
-  box.summary.RequireOk();
+  // The box search varies A, C, Q, R only: with the truth's S or an unmodelled input (issue 22) it is not run.
+  const bool searchable = b.norms.S == 0.0 && !ranges.unmodelled_input;
+  ErrorBoxSearch box;
+  if (searchable) {
+    box = SearchErrorBox(design, ranges, MismatchOptions(), so);
+    box.summary.RequireOk();
+  }
   const LinearFilter f = ConstantGainAsLinearFilter(design, b.terms.filter_gain, model.m0());
   const StationaryPerformance engine = ExactStationaryPerformance(model, f);
   const DareSolution dare = SolveFilterDare(design.A, design.C, design.Q, design.R);
@@ -85,6 +90,10 @@ int RunMismatch(const MismatchArgs& a) {
   j["nominal_trace"] = b.terms.nominal_trace;
   auto extreme = [&](const char* what, const ErrorBoxExtreme& e) {
     std::cout << what;
+    if (!searchable) {
+      std::cout << "not searched (the box search varies A, C, Q, R only; the ranges have S or an unmodelled input)\n";
+      return;
+    }
     if (!e.found) {
       std::cout << ": no valid true system found in the box\n";
       return;
@@ -121,7 +130,9 @@ int RunMismatch(const MismatchArgs& a) {
                                     : "(Theorem 5 with (41) as printed: NOT guaranteed, x > 0.797)");
   }
   lower("pi6", b.pi6, "(Theorem 6, plant errors)");
-  if (!b.pi3 && !b.pi5) {
+  for (const std::string& why : b.refused) std::cout << "  refused " << why << "\n";
+  j["refused"] = b.refused;
+  if (!b.pi3 && !b.pi5 && b.refused.empty()) {
     std::cout << "  none: the ranges include both plant (A, C) and noise (Q, R) errors; Theorems 3-4 need exact "
                  "A, C and Theorems 5-6 exact Q, R\n";
   }

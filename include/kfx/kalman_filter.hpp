@@ -77,11 +77,23 @@ struct UpdateResult {
   double log_likelihood = 0.0;         ///< the step's log-likelihood term (0 when nothing is observed)
 };
 
-/// Time update with step matrices s. @throws kfx::Error on dimension mismatch.
+/// Time update with step matrices s and the step's known input g (length q; empty when the step has no G
+/// or D): x_{k|k-1} = A_k x_{k-1|k-1} + G_k g_k, P_{k|k-1} = A_k P A_k^T + Q_k (RunFilter's predict).
+/// @throws kfx::Error on dimension mismatch, and naming g when the step has G or D and g is not of length q,
+///         or g is given for a step without them (kfx::KnownInputOf).
+Estimate Predict(const Estimate& estimate, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& g,
+                 const KalmanFilterOptions& options = {});
+/// Predict without a known input. @throws kfx::Error as above (naming g when the step has G or D).
 Estimate Predict(const Estimate& estimate, const ModelStep& s, const KalmanFilterOptions& options = {});
-/// Measurement update with y (length m; NaN entries are missing).
-/// @throws kfx::Error on dimension mismatch or infinite entries of y;
+/// Measurement update with y (length m; NaN entries are missing) and the step's known input g (D_k g_k is
+/// taken off y_k). A step with a cross-covariance S is updated by the correlated update of RunFilter
+/// (K = (P C^T + S)(C P C^T + C S + S^T C^T + R)^{-1}), which assumes that `prior` is the prediction of the same
+/// step (S pairs w_k, in P_{k|k-1}, with v_k). The same code as RunFilter's update (one form per options).
+/// @throws kfx::Error on dimension mismatch or infinite entries of y, naming g as Predict;
 ///         kfx::NumericalError if S_k is not numerically positive definite.
+UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
+                    const Eigen::Ref<const Eigen::VectorXd>& g, const KalmanFilterOptions& options = {});
+/// Update without a known input. @throws kfx::Error, kfx::NumericalError as above.
 UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
                     const KalmanFilterOptions& options = {});
 
@@ -91,12 +103,19 @@ class KalmanFilter {
   explicit KalmanFilter(Model model, KalmanFilterOptions options = {});
   /// Back to k = 0 with the prior (m0, P0).
   void Reset();
-  /// Advances to k + 1: x_{k+1|k}, P_{k+1|k}.
+  /// Advances to k + 1: x_{k+1|k}, P_{k+1|k}. @throws kfx::Error naming g when step k + 1 has G or D.
   void Predict();
+  /// Predict with the known input g_{k+1} of step k + 1 (length q). @throws kfx::Error naming g (KnownInputOf).
+  void Predict(const Eigen::Ref<const Eigen::VectorXd>& g);
   /// Updates the current (predicted) estimate with y_k. Must follow Predict().
+  /// @throws kfx::Error naming g when step k has G or D.
   UpdateResult Update(const Eigen::Ref<const Eigen::VectorXd>& y);
+  /// Update with the known input g_k of the current step k (D_k g_k is taken off y_k).
+  UpdateResult Update(const Eigen::Ref<const Eigen::VectorXd>& y, const Eigen::Ref<const Eigen::VectorXd>& g);
   /// Predict() then Update(y).
   UpdateResult Step(const Eigen::Ref<const Eigen::VectorXd>& y);
+  /// Predict(g) then Update(y, g): one step with the known input g_{k+1}.
+  UpdateResult Step(const Eigen::Ref<const Eigen::VectorXd>& y, const Eigen::Ref<const Eigen::VectorXd>& g);
   int k() const { return k_; }
   const Estimate& estimate() const { return estimate_; }
   const Model& model() const { return model_; }

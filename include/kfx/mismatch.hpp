@@ -21,6 +21,18 @@
 // print K_M(k)). These are an independent second algorithm to the exact-performance engine
 // (performance.hpp), which evaluates the same filter through the joint covariance of (x, x^).
 //
+// Beyond 002 (issue 22): the truth may have a cross-covariance S_t = E[w_k v_k^T] (which a design without S
+// does not model) and a known input, x_k gets G_t g_k and y_k gets D_t g_k, which the design's filter models
+// by its own G_M, D_M (none: it ignores the input):
+//   x^_k = A_M x^_{k-1} + G_M g_k + K_M (y_k - D_M g_k - C_M (A_M x^_{k-1} + G_M g_k)).
+// S_t adds to the noise terms of (15)-(16): - (L + K_M dC) S_t K_M^T - K_M S_t^T (L + K_M dC)^T in P_k and
+// + S_t K_M^T in V_k (E[w_k e_k^T] with e_k = -(L + K_M dC) w_k + K_M v_k). The input gives the error a
+// deterministic mean: with the central moments Pc, Vc, Uc of (15)-(17) (+ the S terms),
+//   E[x~_k] = L A_M E[x~_{k-1}] + dC' E[x_{k-1}] + b_k,   E[x_k] = A E[x_{k-1}] + G_t g_k,
+//   b_k = L G_M g_k - (L + K_M dC) G_t g_k + K_M (D_t - D_M) g_k,
+// and P = Pc + E[x~] E[x~]^T (likewise V, U): tr P = tr Pc + |E x~|^2 is the mean-square error.
+// docs/papers/002.md ("Beyond 002") derives these and says which bounds still hold.
+//
 // The noise covariance of a step, in 002's sense, is the p x p covariance U of a noise input
 // (ModelStep::B = G, ModelStep::U) when the step has one, and otherwise the n x n Q with G = I.
 // Its error dQ has that shape.
@@ -40,16 +52,19 @@ struct ModelingErrors {
   Eigen::MatrixXd C;  ///< m x n: 002's dH = C_M - C
   Eigen::MatrixXd Q;  ///< p x p (noise input) or n x n: dQ = Q_M - Q (symmetric)
   Eigen::MatrixXd R;  ///< m x m: dR = R_M - R (symmetric)
+  /// n x m: dS = S_M - S_t, the cross-covariance's error (issue 22; a design without S: dS = -S_t).
+  Eigen::MatrixXd S;
 };
 
 /// The true step of a design step with errors: A = A_M - dA, C = C_M - dC, the noise covariance
-/// minus dQ (with the design's noise input G, if any), R = R_M - dR.
+/// minus dQ (with the design's noise input G, if any), R = R_M - dR, S = S_M - dS (none when both are
+/// empty); the design's known input (G, D) is kept.
 /// @throws kfx::Error naming the error matrix ("errors.A", ...) on a shape mismatch, non-finite or
 ///         asymmetric entries, or if the true Q is not PSD or the true R not PD.
 ModelStep ApplyModelingErrors(const ModelStep& design, const ModelingErrors& errors);
 
 /// design - truth, for two steps of the same dimensions and the same noise input G (both without
-/// one, or both with the same B). @throws kfx::Error otherwise.
+/// one, or both with the same B); dS when either has S. @throws kfx::Error otherwise.
 ModelingErrors ModelingErrorsBetween(const ModelStep& design, const ModelStep& truth);
 
 // ---- exact true error ------------------------------------------------------------------------
@@ -58,18 +73,25 @@ struct MismatchOptions {
   /// The filter gain K_M (n x m). Empty: the steady-state Kalman filter gain of the design step
   /// (SolveFilterDare). 002's bounds hold for any gain (remark after Theorem 4).
   Eigen::MatrixXd filter_gain{};
+  /// The constant known input g (length q) of the stationary analysis (issue 22): required when the design
+  /// or the truth has G or D, none (empty) otherwise. Not for the bounds (Theorem 1 refuses it).
+  Eigen::VectorXd input{};
   bool IsValid(std::string* error) const;
 };
 
 /// Stationary solution of (15)-(17) (002 Sec. 3): U from the Lyapunov equation U = A U A^T + G Q G^T
 /// (SolveDiscreteLyapunov), V from the Sylvester equation V = A V (L A_M)^T + A U dC'^T
-/// - G Q G^T (L + K_M dC)^T (SLICOT SB04QD), P from the Lyapunov equation of (15).
+/// - G Q G^T (L + K_M dC)^T (SLICOT SB04QD), P from the Lyapunov equation of (15); with the truth's S its
+/// terms, with a constant input g the stationary means E[x] = (I - A)^{-1} G_t g,
+/// E[x~] = (I - L A_M)^{-1} (dC' E[x] + b) (b as above, constant).
 struct StationaryMismatch {
   Eigen::MatrixXd filter_gain;          ///< K_M, n x m
-  Eigen::MatrixXd P;                    ///< n x n, E[x~ x~^T]: the true error covariance of the filter
+  Eigen::MatrixXd P;                    ///< n x n, E[x~ x~^T] = Cov(x~) + E[x~] E[x~]^T (no input: the covariance)
   Eigen::MatrixXd V;                    ///< n x n, E[x x~^T] (002's sign)
   Eigen::MatrixXd U;                    ///< n x n, E[x x^T]
-  double trace = 0.0;                   ///< tr P, 002's performance index (14)
+  Eigen::VectorXd error_mean;           ///< E[x~] (zero without a known input)
+  Eigen::VectorXd state_mean;           ///< E[x]
+  double trace = 0.0;                   ///< tr P = tr Cov(x~) + |E x~|^2, the MSE; 002's index (14)
   double true_spectral_radius = 0.0;    ///< rho(A)
   double filter_spectral_radius = 0.0;  ///< rho(L A_M)
   /// kConverged: stationary P, V, U computed; relative_residual = the largest relative residual
@@ -81,8 +103,11 @@ struct StationaryMismatch {
 };
 
 /// The stationary true error of the filter (10) designed on `design` and run on `truth`.
-/// @param design, truth time-invariant steps of the same dimensions (n, m).
-/// @throws kfx::Error on invalid steps/options (dimensions, a filter_gain that is not n x m).
+/// @param design, truth time-invariant steps of the same dimensions (n, m); the truth may have S, either may
+///        have a known input (G, D; the same q).
+/// @throws kfx::Error on invalid steps/options (dimensions, a filter_gain that is not n x m, a design with S and
+///         no filter_gain: its steady-state gain is not computed here), naming options.input when it does not
+///         fit the steps' G, D (required by a step with G or D, refused when neither has them).
 /// Numerical outcomes (unstable system or filter, failed solves) are in summary.
 StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const ModelStep& truth,
                                                   const MismatchOptions& options = MismatchOptions());
@@ -92,11 +117,13 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
 /// design.m0(), and x_0 ~ N(truth.m0(), truth.P0()). Then P_0 = P0_t + d d^T (d = m0_M - m0_t),
 /// V_0 = m0_t m0_M^T - U_0, U_0 = P0_t + m0_t m0_t^T (002 states P(0) = -V(0) = U(0) for a zero mean).
 struct MismatchSequence {
-  std::vector<Eigen::MatrixXd> P;            ///< k = 0..T: E[x~_k x~_k^T]
+  std::vector<Eigen::MatrixXd> P;            ///< k = 0..T: E[x~_k x~_k^T] (its trace is the MSE)
   std::vector<Eigen::MatrixXd> V;            ///< k = 0..T: E[x_k x~_k^T]
   std::vector<Eigen::MatrixXd> U;            ///< k = 0..T: E[x_k x_k^T]
   std::vector<Eigen::MatrixXd> filter_gain;  ///< k = 1..T (index 0 empty): K_M at step k
-  Eigen::VectorXd trace;                     ///< length T+1: tr P_k
+  Eigen::VectorXd trace;                     ///< length T+1: tr P_k = tr Cov(x~_k) + |E x~_k|^2
+  TimeSeries error_mean;                     ///< (T+1) x n, row k = E[x~_k] (prior means, the known input)
+  TimeSeries state_mean;                     ///< (T+1) x n, row k = E[x_k]
 };
 
 struct MismatchSequenceOptions {
@@ -106,6 +133,12 @@ struct MismatchSequenceOptions {
 /// input; kfx::NumericalError (a recursion) if the design's Kalman schedule breaks down.
 MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth,
                                               const MismatchSequenceOptions& options);
+/// The same with the known input g (T x q, row k-1 = g_k; issue 22): the truth's G_t g_k, D_t g_k drive it,
+/// the filter applies the design's G_M, D_M (none: it ignores the input). The truth may have S (the
+/// design's own S only changes its gains). @throws kfx::Error as above, and naming g when it does not fit
+/// a model that has G or D (kfx::RequireKnownInput), or has columns when neither has.
+MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth, const TimeSeries& g,
+                                              const MismatchSequenceOptions& options);
 
 // ---- bounds (002 Secs. 3-5) -------------------------------------------------------------------
 
@@ -113,18 +146,23 @@ MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& 
 /// An empty matrix means that X is known exactly. Q and R must be symmetric.
 struct ErrorRanges {
   Eigen::MatrixXd A, C, Q, R;
+  /// n x m range of dS = S_M - S_t (issue 22): the truth's cross-covariance, for a design without S.
+  Eigen::MatrixXd S;
+  /// The truth has a known input that the design's filter ignores or mis-models (G, D differ).
+  bool unmodelled_input = false;
   /// True when every entry is zero (or the matrix is empty) for A and C (resp. Q and R).
   bool PlantExact() const;
   bool NoiseExact() const;
 };
 
-/// Checks shapes against the design (n x n, m x n, noise covariance shape, m x m), finiteness,
+/// Checks shapes against the design (n x n, m x n, noise covariance shape, m x m, S n x m), finiteness,
 /// non-negativity and symmetry of Q and R. @throws kfx::Error naming "ranges.A", ...
 void ValidateErrorRanges(const ModelStep& design, const ErrorRanges& ranges);
 
 /// Bounds on the error norms that the theorems use (|.| = Frobenius norm, 002's ||.||).
 struct ErrorNorms {
   double A = 0.0, C = 0.0, Q = 0.0, R = 0.0;
+  double S = 0.0;                   ///< |dS|_F (issue 22)
   double A_diagonal_abs_sum = 0.0;  ///< sum_i |dA_ii| (Theorem 6)
 };
 /// The largest values over the box: |dX|_F <= |range X|_F, sum |dA_ii| <= sum range A_ii.
@@ -153,8 +191,10 @@ DesignTerms ComputeDesignTerms(const ModelStep& design, const MismatchOptions& o
 /// Theorem 1 (22)-(27) for known errors: tr P <= pi_1 = i^T M^{-1} b + |(M^{-1})^T i| |D|, with
 ///   D = L G Q_M G^T dC^T K_M^T + K_M dC G Q_M G^T (L + K_M dC)^T + dC' V A_M^T L^T + L A_M V^T dC'^T
 ///       + dC' U dC'^T - (L + K_M dC) G dQ G^T (L + K_M dC)^T - K_M dR K_M^T
-/// (26) corrected: K_M for K_M^T, L A_M V^T for L A_M^T V^T). The identity
-/// tr P = i^T M^{-1} (b + cs(D)) holds exactly (`identity_trace`).
+/// (26) corrected: K_M for K_M^T, L A_M V^T for L A_M^T V^T), and with S (issue 22) the terms
+/// H + H^T, H = L S_M K_M^T - (L + K_M dC) S_t K_M^T (b then holds - L S_M K_M^T - K_M S_M^T L^T). The identity
+/// tr P = i^T M^{-1} (b + cs(D)) holds exactly (`identity_trace`), so the bound holds with S. A known input
+/// (options.input) is refused: its mean terms are not in D.
 struct Theorem1Result {
   double pi1 = 0.0;
   double D_norm = 0.0;          ///< |D|_F
@@ -170,11 +210,14 @@ Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& erro
 /// Theorem 2 (28)-(31): tr P_F >= pi_2 = (-a2 + sqrt(a2^2 + 4 a1 a3)) / (2 a1) for the optimal
 /// (Kalman) filter of `truth`, a1 = |A^T C^T R^{-1} C A|_s ((29) prints the exponent 5),
 /// a2 = n + tr(C^T R^{-1} C Q) - sum_i |lambda_i(A)|^2, a3 = tr Q (kfx's Q = G Q G^T).
-/// @throws kfx::Error on an invalid step.
+/// Not for a truth with S != 0: its optimal filter uses the correlation and can do better than pi_2
+/// (docs/papers/002.md, "Beyond 002"). A known input does not change tr P_F.
+/// @throws kfx::Error on an invalid step, or naming truth.S when the truth has a nonzero S.
 double Theorem2Bound(const ModelStep& truth);
 
 /// Theorem 3 (33), dA = 0, dC = 0: tr P <= pi_3 = i^T M^{-1} b + |(M^{-1})^T i| (|L G|_s^2 |dQ| +
-/// |K_M|_s^2 |dR|). @throws kfx::Error unless norms.A == norms.C == 0 and terms.summary.ok().
+/// |K_M|_s^2 |dR| + 2 |L|_s |K_M|_s |dS|) (the last term kfx's, for the truth's S: D gets L dS K_M^T + its
+/// transpose). @throws kfx::Error unless norms.A == norms.C == 0 and terms.summary.ok().
 double Theorem3Bound(const DesignTerms& terms, const ErrorNorms& norms);
 
 /// How sum_i |lambda_i(A)|^2 enters Theorem 4's alpha_2 (36).
@@ -237,14 +280,18 @@ Theorem5Result Theorem5Bound(const ModelStep& design, const DesignTerms& terms, 
 double Theorem6Bound(const ModelStep& design, const ErrorNorms& norms);
 
 /// Every bound of Theorems 3-6 that applies to the ranges (3, 4: plant exact; 5, 6: noise exact;
-/// all four when the ranges are all zero). @throws kfx::Error (ComputePatelTodaBounds) for an invalid design
-/// step, a range of the wrong shape, non-finite, negative or (Q, R) not symmetric, or a filter gain that is not
-/// n x m and finite.
+/// all four when the ranges are all zero), except those `refused` lists (S range, unmodelled input). @throws kfx::Error
+/// (ComputePatelTodaBounds) for an invalid design step, a range of the wrong shape, non-finite, negative or (Q, R) not
+/// symmetric, or a filter gain that is not n x m and finite.
 struct PatelTodaBounds {
   ErrorNorms norms;
   DesignTerms terms;
   std::optional<double> pi3, pi4, pi5, pi5_printed, pi6;
   std::optional<LemmaBound> lemma;
+  /// The bounds left unset because they do not hold for these ranges, each "piN: why" (issue 22): with a
+  /// nonzero S range pi4, pi6 (the truth's optimal filter uses S and can beat them) and pi5 (no S term);
+  /// with an unmodelled input pi3, pi5 (the error's mean is not bounded by the ranges). pi3 holds with S.
+  std::vector<std::string> refused;
   Summary summary;  ///< kConverged, or the design terms' outcome (terms.summary; no bound is then set)
 };
 /// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
@@ -292,7 +339,8 @@ struct ErrorBoxSearch {
 /// error tr P of the design's filter and the smallest optimal error tr P_F (002 Sec. 6, the numbers in
 /// parentheses). Corners first, then a compass search; the result is a value attained in the box
 /// (a lower estimate of the supremum, an upper estimate of the infimum).
-/// @throws kfx::Error on invalid input. Numerical outcomes are in summary.
+/// @throws kfx::Error on invalid input, and naming ranges.S / ranges.unmodelled_input when they are set (the
+///         search varies A, C, Q, R only). Numerical outcomes are in summary.
 ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges,
                               const MismatchOptions& options = MismatchOptions(),
                               const ErrorBoxSearchOptions& search = ErrorBoxSearchOptions());

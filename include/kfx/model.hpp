@@ -127,6 +127,11 @@ struct KnownInputTerms {
 /// The terms of step k from the series g (T x q, row k-1 = g_k; 0 columns when the model has no known input).
 /// @throws kfx::Error naming g when its width is not the step's q or row k-1 is missing or not finite.
 KnownInputTerms KnownInputAt(const ModelStep& step, const TimeSeries& g, int k);
+/// The terms of one step for its known input g_k (length q; an empty vector when the step has no G or D), for
+/// the single-step Predict / Update (kfx/kalman_filter.hpp).
+/// @throws kfx::Error naming g when the step has G or D and g is empty or not of length q, when g is given for
+///         a step with neither, or when an entry is not finite.
+KnownInputTerms KnownInputOf(const ModelStep& step, const Eigen::Ref<const Eigen::VectorXd>& g);
 /// Checks g against the model for steps 1..T: at least T rows and q columns when the model has a known
 /// input (q = model.input_dim()), none (0 columns) when it has not; finite.
 /// @throws kfx::Error naming g and what was expected.

@@ -144,7 +144,9 @@ class ErrorRanges:
     C: numpy.ndarray
     Q: numpy.ndarray
     R: numpy.ndarray
-    def __init__(self: ErrorRanges, A: Optional[numpy.ndarray] = None, C: Optional[numpy.ndarray] = None, Q: Optional[numpy.ndarray] = None, R: Optional[numpy.ndarray] = None) -> None: ...
+    S: numpy.ndarray
+    def __init__(self: ErrorRanges, A: Optional[numpy.ndarray] = None, C: Optional[numpy.ndarray] = None, Q: Optional[numpy.ndarray] = None, R: Optional[numpy.ndarray] = None, S: Optional[numpy.ndarray] = None, unmodelled_input: bool = False) -> None: """S: range of the truth's cross-covariance (n, m); unmodelled_input: the truth has a known input the filter ignores or mis-models (patel_toda_bounds then refuses the bounds that do not hold)."""
+    unmodelled_input: bool
 
 class Estimate:
     """A Gaussian estimate (x, P)."""
@@ -302,7 +304,8 @@ class ModelingErrors:
     C: numpy.ndarray
     Q: numpy.ndarray
     R: numpy.ndarray
-    def __init__(self: ModelingErrors, A: Optional[numpy.ndarray] = None, C: Optional[numpy.ndarray] = None, Q: Optional[numpy.ndarray] = None, R: Optional[numpy.ndarray] = None) -> None: ...
+    S: numpy.ndarray
+    def __init__(self: ModelingErrors, A: Optional[numpy.ndarray] = None, C: Optional[numpy.ndarray] = None, Q: Optional[numpy.ndarray] = None, R: Optional[numpy.ndarray] = None, S: Optional[numpy.ndarray] = None) -> None: """S: dS = S_M - S_t, the cross-covariance's error (n, m)."""
 
 class MonteCarloResult:
     """C++ (include/kfx/performance.hpp, MonteCarloResult):"""
@@ -360,8 +363,10 @@ class StationaryMismatch:
     P: numpy.ndarray
     U: numpy.ndarray
     V: numpy.ndarray
+    error_mean: numpy.ndarray
     filter_gain: numpy.ndarray
     filter_spectral_radius: float
+    state_mean: numpy.ndarray
     summary: Summary
     trace: float
     true_spectral_radius: float
@@ -509,7 +514,7 @@ def make_identical_coupled_step(n: int, F: numpy.ndarray, H: numpy.ndarray, V: n
 
 def matrix_exponential(M: numpy.ndarray) -> numpy.ndarray: """e^M by Eigen's scaling-and-squaring Pade approximant (unsupported/MatrixFunctions)."""
 
-def mismatched_covariance_sequence(design: Model, truth: Model, steps: int) -> dict: """002 (15)-(19) over k = 0..T: dict with P, V, U (T+1, n, n), filter_gain (T, n, m), trace (T+1,)."""
+def mismatched_covariance_sequence(design: Model, truth: Model, steps: int, input: Optional[numpy.ndarray] = None) -> dict: """002 (15)-(19) over k = 0..T: dict with P, V, U (T+1, n, n; second moments), filter_gain (T, n, m), trace (T+1,; the MSE), error_mean, state_mean (T+1, n). The truth may have S; input: the known input g (T, q), required when a model has G or D (the filter applies the design's G, D; none: it ignores the input). Raises kfx.Error on mismatched dimensions or steps, naming g when the input does not fit."""
 
 def modeling_errors_between(design: ModelStep, truth: ModelStep) -> ModelingErrors: """design - truth, for two steps of the same dimensions and the same noise input G (both without"""
 
@@ -519,9 +524,9 @@ def paper_ids() -> List[str]: """The ids accepted by reproduce(), in paper order
 
 def parse_method(spec: str) -> tuple: """Checks a method specification (docs/cli.md) and returns (name, {key: value}); raises kfx.Error."""
 
-def patel_toda_bounds(design: ModelStep, ranges: ErrorRanges, filter_gain: Optional[numpy.ndarray] = None) -> dict: """002 Theorems 3-6 for the ranges (pi3, pi4: plant exact; pi5, pi6: noise exact; None where a theorem does not apply). pi5 uses the corrected Lemma bound, pi5_printed (41) as printed. 'summary': a kfx.Summary (when the design's DARE fails, every bound is None and the summary says why)."""
+def patel_toda_bounds(design: ModelStep, ranges: ErrorRanges, filter_gain: Optional[numpy.ndarray] = None) -> dict: """002 Theorems 3-6 for the ranges (pi3, pi4: plant exact; pi5, pi6: noise exact; None where a theorem does not apply). pi5 uses the corrected Lemma bound, pi5_printed (41) as printed. 'summary': a kfx.Summary (when the design's DARE fails, every bound is None and the summary says why). 'refused': the bounds left None because they do not hold with the ranges' S or unmodelled input, each 'piN: why'."""
 
-def predict(estimate: Estimate, step: ModelStep, update_form: str = 'joseph') -> Estimate: """Time update x_{k|k-1} = A x, P_{k|k-1} = A P A^T + Q."""
+def predict(estimate: Estimate, step: ModelStep, update_form: str = 'joseph', input: Optional[numpy.ndarray] = None) -> Estimate: """Time update x_{k|k-1} = A x + G g, P_{k|k-1} = A P A^T + Q; input: the step's known input g_k (q,), required when the step has G or D. Raises kfx.Error naming the estimate or step on a bad shape, and naming g when input is missing for a step with G or D, given for a step without, or not of length q."""
 
 def projection_adjoint(subspace: Subspace) -> numpy.ndarray: """Pi^* = W^{-1} Pi^T."""
 
@@ -578,7 +583,7 @@ def spectral_radius(A: numpy.ndarray) -> float: """Spectral radius max |lambda_i
 
 def spring_mass_chain(N: int, mass: float = 1.0, k: float = 1.0, c: float = 0.0, left_fixed: bool = True, right_fixed: bool = True, dt: float = 0.1, first_mass: int = 0) -> dict: """001 Fig. 1: a uniform chain of N masses; dict with Ac, Ad = e^{Ac dt}, K, D, order."""
 
-def stationary_mismatched_covariance(design: ModelStep, truth: ModelStep, filter_gain: Optional[numpy.ndarray] = None) -> StationaryMismatch: """002 (15)-(17): the stationary true error of the filter designed on `design`, run on `truth`."""
+def stationary_mismatched_covariance(design: ModelStep, truth: ModelStep, filter_gain: Optional[numpy.ndarray] = None, input: Optional[numpy.ndarray] = None) -> StationaryMismatch: """002 (15)-(17): the stationary true error of the filter designed on `design`, run on `truth`; the truth may have S (which the design ignores), and with a constant known input g (input=, length q, required when design or truth has G or D) the error has a mean (error_mean; P and trace include it). Raises kfx.Error naming the step, filter_gain or options.input at fault."""
 
 def study_convergence(model: ContinuousModel, T: float, n_values: List[int] = ..., rate_min_n: int = 16, progress: object = None) -> ConvergenceStudy: """003: err(n) = tr P_{T,n} - tr P_c(T) for each n, the bounds of Theorems 1-4 and the fitted rate; progress counts the values of n. progress: None or a callable progress(done, total), called at most every 0.05 s and at the end (e.g. a tqdm bar: lambda d, t: bar.update(d - bar.n)); an exception it raises stops the call. The GIL is released during the computation, and Ctrl-C stops it with KeyboardInterrupt."""
 
@@ -604,7 +609,7 @@ def triangularity_defect(A: numpy.ndarray, T: numpy.ndarray, n_r: int) -> float:
 
 def unknown_input_spectral_radius(system: IdenticalSubsystems) -> float: """Whether the full Kalman filter "decouples" as n -> infinity (004 Sec. 3.1). The mean mode carries"""
 
-def update(prior: Estimate, step: ModelStep, y: numpy.ndarray, update_form: str = 'joseph') -> UpdateResult: """Measurement update with y (NaN entries are missing); Joseph form by default."""
+def update(prior: Estimate, step: ModelStep, y: numpy.ndarray, update_form: str = 'joseph', input: Optional[numpy.ndarray] = None) -> UpdateResult: """Measurement update with y (NaN entries are missing), Joseph form by default; input: the step's known input g_k (D g_k is taken off y). A step with S gets run_filter's correlated update, K = (P C^T + S) (C P C^T + C S + S^T C^T + R)^-1, for a prior that is the prediction of the same step. Raises kfx.Error as predict, or for y of the wrong length; kfx.NumericalError if the innovation covariance is not positive definite."""
 
 def wave_modal_model(sigma2: List[float], d: List[float], R: float) -> ContinuousModel: """003 Example 1: the wave equation in dyadic modes."""
 

@@ -92,22 +92,29 @@ void BindKalmanFilter(py::module_& m) {
       .def_readonly("log_likelihood", &UpdateResult::log_likelihood);
   m.def(
       "predict",
-      [](const Estimate& e, const ModelStep& s, const std::string& form) {
+      [](const Estimate& e, const ModelStep& s, const std::string& form, std::optional<Eigen::VectorXd> input) {
         KalmanFilterOptions o;
         o.update_form = ParseUpdateForm(form);
-        return Predict(e, s, o);
+        return Predict(e, s, input ? *input : Eigen::VectorXd(), o);
       },
-      py::arg("estimate"), py::arg("step"), py::arg("update_form") = "joseph",
-      "Time update x_{k|k-1} = A x, P_{k|k-1} = A P A^T + Q.");
+      py::arg("estimate"), py::arg("step"), py::arg("update_form") = "joseph", py::arg("input") = py::none(),
+      "Time update x_{k|k-1} = A x + G g, P_{k|k-1} = A P A^T + Q; input: the step's known input g_k (q,), "
+      "required when the step has G or D. Raises kfx.Error naming the estimate or step on a bad shape, and "
+      "naming g when input is missing for a step with G or D, given for a step without, or not of length q.");
   m.def(
       "update",
-      [](const Estimate& e, const ModelStep& s, const Eigen::VectorXd& y, const std::string& form) {
+      [](const Estimate& e, const ModelStep& s, const Eigen::VectorXd& y, const std::string& form,
+         std::optional<Eigen::VectorXd> input) {
         KalmanFilterOptions o;
         o.update_form = ParseUpdateForm(form);
-        return Update(e, s, y, o);
+        return Update(e, s, y, input ? *input : Eigen::VectorXd(), o);
       },
-      py::arg("prior"), py::arg("step"), py::arg("y"), py::arg("update_form") = "joseph",
-      "Measurement update with y (NaN entries are missing); Joseph form by default.");
+      py::arg("prior"), py::arg("step"), py::arg("y"), py::arg("update_form") = "joseph", py::arg("input") = py::none(),
+      "Measurement update with y (NaN entries are missing), Joseph form by default; input: the step's known "
+      "input g_k (D g_k is taken off y). A step with S gets run_filter's correlated update, K = (P C^T + S) "
+      "(C P C^T + C S + S^T C^T + R)^-1, for a prior that is the prediction of the same step. Raises kfx.Error "
+      "as predict, or for y of the wrong length; kfx.NumericalError if the innovation covariance is not "
+      "positive definite.");
 
   py::class_<FilterHealth>(m, "FilterHealth", "Health of a filter run (docs/robustness.md, 'Health checks').")
       .def_readonly("monitored", &FilterHealth::monitored)

@@ -169,15 +169,43 @@ Model Model::WithPrior(Eigen::VectorXd m0, Eigen::MatrixXd P0) const {
   return copy;
 }
 
-KnownInputTerms KnownInputAt(const ModelStep& step, const TimeSeries& g, int k) {
+namespace {
+
+// G g and D g of a step whose known input g (length q) has been checked.
+KnownInputTerms TermsOf(const ModelStep& step, const Eigen::Ref<const Eigen::VectorXd>& g) {
   KnownInputTerms t;
+  if (step.G.size() > 0) t.state.noalias() = step.G * g;
+  if (step.D.size() > 0) t.measurement.noalias() = step.D * g;
+  return t;
+}
+
+}  // namespace
+
+KnownInputTerms KnownInputOf(const ModelStep& step, const Eigen::Ref<const Eigen::VectorXd>& g) {
+  const Eigen::Index q = step.input_dim();
+  if (!step.has_known_input()) {
+    if (g.size() > 0) {
+      throw Error("g: expected no known input (the step has no G or D), got a vector of length " +
+                  std::to_string(g.size()));
+    }
+    return KnownInputTerms{};
+  }
+  if (g.size() != q) {
+    throw Error("g: expected the known input g_k of length " + std::to_string(q) + " (the step's G, D)" +
+                (g.size() == 0 ? std::string(", got none") : ", got length " + std::to_string(g.size())));
+  }
+  if (!g.allFinite()) throw Error("g: expected finite entries (a known input has no missing values)");
+  return TermsOf(step, g);
+}
+
+KnownInputTerms KnownInputAt(const ModelStep& step, const TimeSeries& g, int k) {
   const Eigen::Index q = step.input_dim();
   if (!step.has_known_input()) {
     if (g.cols() > 0) {
       throw Error("g: expected no known input (step " + std::to_string(k) + " has no G or D), got " +
                   std::to_string(g.cols()) + " columns");
     }
-    return t;
+    return KnownInputTerms{};
   }
   if (g.cols() != q || g.rows() < k) {
     throw Error("g: expected a known input of " + std::to_string(q) + " columns and at least " + std::to_string(k) +
@@ -185,9 +213,7 @@ KnownInputTerms KnownInputAt(const ModelStep& step, const TimeSeries& g, int k) 
   }
   const auto gk = g.row(k - 1).transpose();
   if (!gk.allFinite()) throw Error("g (row " + std::to_string(k - 1) + "): expected finite entries");
-  if (step.G.size() > 0) t.state.noalias() = step.G * gk;
-  if (step.D.size() > 0) t.measurement.noalias() = step.D * gk;
-  return t;
+  return TermsOf(step, gk);
 }
 
 void RequireKnownInput(const Model& model, const TimeSeries& g, int T) {

@@ -30,6 +30,31 @@ void CheckStep(const ModelStep& s) {
   ValidateStep(s, s.A.rows(), s.C.rows(), "step.");
 }
 
+// The single steps on checked arguments, as RunFilter's loop does them (filter_form.cpp, RunLoop): the form's
+// predict, then G_k g_k added to the mean; D_k g_k taken off y_k (NaN entries stay missing), then the form's
+// update (with S: the correlated update).
+Estimate PredictWithInput(const Estimate& e, const ModelStep& s, const KnownInputTerms& input,
+                          const KalmanFilterOptions& options) {
+  Estimate out = detail::KalmanFormFor(options, s.A.rows(), s.C.rows()).Predict(e, s, options);
+  if (input.state.size() > 0) out.x += input.state;
+  return out;
+}
+
+UpdateResult UpdateWithInput(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
+                             const KnownInputTerms& input, const KalmanFilterOptions& options) {
+  const detail::KalmanForm& form = detail::KalmanFormFor(options, s.A.rows(), s.C.rows());
+  if (input.measurement.size() == 0) return form.Update(prior, s, y, options);
+  const Eigen::VectorXd y_net = y - input.measurement;
+  return form.Update(prior, s, y_net, options);
+}
+
+void RequireMeasurementLength(const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Index m) {
+  if (y.size() != m) {
+    throw Error("y: expected a measurement of length " + std::to_string(m) + ", got length " +
+                std::to_string(y.size()));
+  }
+}
+
 }  // namespace
 
 const char* ToString(CovarianceUpdateForm form) {
@@ -69,23 +94,28 @@ bool KalmanFilterOptions::IsValid(std::string* error) const {
   return true;
 }
 
-Estimate Predict(const Estimate& e, const ModelStep& s, const KalmanFilterOptions& options) {
-  const Eigen::Index n = s.A.rows();
+Estimate Predict(const Estimate& e, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& g,
+                 const KalmanFilterOptions& options) {
   CheckStep(s);
-  CheckEstimate(e, n, "estimate");
-  return detail::KalmanFormFor(options, n, s.C.rows()).Predict(e, s, options);
+  CheckEstimate(e, s.A.rows(), "estimate");
+  return PredictWithInput(e, s, KnownInputOf(s, g), options);
+}
+
+Estimate Predict(const Estimate& e, const ModelStep& s, const KalmanFilterOptions& options) {
+  return Predict(e, s, Eigen::VectorXd(), options);
+}
+
+UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
+                    const Eigen::Ref<const Eigen::VectorXd>& g, const KalmanFilterOptions& options) {
+  CheckStep(s);
+  CheckEstimate(prior, s.A.rows(), "prior");
+  RequireMeasurementLength(y, s.C.rows());
+  return UpdateWithInput(prior, s, y, KnownInputOf(s, g), options);
 }
 
 UpdateResult Update(const Estimate& prior, const ModelStep& s, const Eigen::Ref<const Eigen::VectorXd>& y,
                     const KalmanFilterOptions& options) {
-  const Eigen::Index n = s.A.rows(), m = s.C.rows();
-  CheckStep(s);
-  CheckEstimate(prior, n, "prior");
-  if (y.size() != m) {
-    throw Error("y: expected a measurement of length " + std::to_string(m) + ", got length " +
-                std::to_string(y.size()));
-  }
-  return detail::KalmanFormFor(options, n, m).Update(prior, s, y, options);
+  return Update(prior, s, y, Eigen::VectorXd(), options);
 }
 
 KalmanFilter::KalmanFilter(Model model, KalmanFilterOptions options) : model_(std::move(model)), options_(options) {
@@ -100,30 +130,34 @@ void KalmanFilter::Reset() {
   predicted_ = false;
 }
 
-void KalmanFilter::Predict() {
+void KalmanFilter::Predict() { Predict(Eigen::VectorXd()); }
+
+void KalmanFilter::Predict(const Eigen::Ref<const Eigen::VectorXd>& g) {
   const StepPtr s = model_.step(k_ + 1);
-  estimate_ = detail::KalmanFormFor(options_, model_.state_dim(), model_.meas_dim()).Predict(estimate_, *s, options_);
+  estimate_ = PredictWithInput(estimate_, *s, KnownInputOf(*s, g), options_);
   ++k_;
   predicted_ = true;
 }
 
-UpdateResult KalmanFilter::Update(const Eigen::Ref<const Eigen::VectorXd>& y) {
+UpdateResult KalmanFilter::Update(const Eigen::Ref<const Eigen::VectorXd>& y) { return Update(y, Eigen::VectorXd()); }
+
+UpdateResult KalmanFilter::Update(const Eigen::Ref<const Eigen::VectorXd>& y,
+                                  const Eigen::Ref<const Eigen::VectorXd>& g) {
   if (!predicted_) throw Error("Update: expected a Predict() before each Update() (k = " + std::to_string(k_) + ")");
-  if (y.size() != model_.meas_dim()) {
-    throw Error("y: expected a measurement of length " + std::to_string(model_.meas_dim()) + ", got length " +
-                std::to_string(y.size()));
-  }
+  RequireMeasurementLength(y, model_.meas_dim());
   const StepPtr s = model_.step(k_);
-  UpdateResult r =
-      detail::KalmanFormFor(options_, model_.state_dim(), model_.meas_dim()).Update(estimate_, *s, y, options_);
+  UpdateResult r = UpdateWithInput(estimate_, *s, y, KnownInputOf(*s, g), options_);
   estimate_ = r.estimate;
   predicted_ = false;
   return r;
 }
 
-UpdateResult KalmanFilter::Step(const Eigen::Ref<const Eigen::VectorXd>& y) {
-  Predict();
-  return Update(y);
+UpdateResult KalmanFilter::Step(const Eigen::Ref<const Eigen::VectorXd>& y) { return Step(y, Eigen::VectorXd()); }
+
+UpdateResult KalmanFilter::Step(const Eigen::Ref<const Eigen::VectorXd>& y,
+                                const Eigen::Ref<const Eigen::VectorXd>& g) {
+  Predict(g);
+  return Update(y, g);
 }
 
 FilterRun RunFilter(const Model& model, const TimeSeries& y, const FilterRunOptions& options) {

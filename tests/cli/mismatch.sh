@@ -27,6 +27,21 @@ check "plant ranges: JSON" grep -q '"least_upper"' "$tmp/plant.json"
 check "noise ranges: exit 0" test $? -eq 0
 check "noise ranges: Theorems 3 and 4" grep -q "pi4: tr P_F" "$tmp/noise.txt"
 
+# Issue 22: the truth's cross-covariance S (range) and an unmodelled input: the bounds that do not hold are
+# refused, saying why; the box search is not run.
+printf '{"S": [[0.5], [0.0]]}\n' > "$tmp/s.json"
+"$kfx" mismatch "$model" --ranges "$tmp/s.json" --json "$tmp/s_out.json" > "$tmp/s.txt"
+check "S range: exit 0" test $? -eq 0
+check "S range: Theorem 3 with its S term" grep -q "pi3: tr P" "$tmp/s.txt"
+check "S range: pi4, pi5, pi6 refused" test "$(grep -c '^  refused pi[456]: the truth has a cross-covariance S' "$tmp/s.txt")" -eq 3
+check "S range: no box search" grep -q "not searched" "$tmp/s.txt"
+check "S range: JSON refused" grep -q '"refused"' "$tmp/s_out.json"
+printf '{"Q": 1.0, "unmodelled_input": true}\n' > "$tmp/input.json"
+"$kfx" mismatch "$model" --ranges "$tmp/input.json" > "$tmp/input.txt"
+check "unmodelled input: exit 0" test $? -eq 0
+check "unmodelled input: pi3 refused" grep -q "^  refused pi3: the truth has a known input" "$tmp/input.txt"
+check "unmodelled input: pi4 holds" grep -q "pi4: tr P_F" "$tmp/input.txt"
+
 expect_error() {  # expect_error PATTERN -- ARGS...
   local pattern=$1
   shift 2
@@ -48,6 +63,10 @@ expect_error "ranges.R" -- mismatch "$model" --ranges "$tmp/shape.json"
 printf '{"format": "kfx-error-ranges"}\n' > "$tmp/empty.json"
 expect_error "empty.json" -- mismatch "$model" --ranges "$tmp/empty.json"
 expect_error "missing.json" -- mismatch "$model" --ranges "$tmp/missing.json"
+printf '{"unmodelled_input": 3}\n' > "$tmp/bad_input.json"
+expect_error "unmodelled_input: expected true or false" -- mismatch "$model" --ranges "$tmp/bad_input.json"
+printf '{"S": [[0.5, 0.0]]}\n' > "$tmp/bad_s.json"
+expect_error "ranges.S" -- mismatch "$model" --ranges "$tmp/bad_s.json"
 
 "$kfx" reproduce patel-toda --json "$tmp/r.json" > "$tmp/r.txt"
 check "reproduce patel-toda: exit 0" test $? -eq 0

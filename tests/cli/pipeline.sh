@@ -18,7 +18,19 @@ cmp "$tmp/sim/y.npy" "$tmp/sim2/y.npy"   # same seed, same bytes
 grep -q "log-likelihood" "$tmp/f.txt"
 # CSV data gives the same log-likelihood as .npy data (17 significant digits in CSV).
 diff <(grep log-likelihood "$tmp/f.txt") <(grep log-likelihood "$tmp/fc.txt")
-"$kfx" smooth "$model" --data "$tmp/sim/y.npy" -o "$tmp/s" > /dev/null
+"$kfx" smooth "$model" --data "$tmp/sim/y.npy" -o "$tmp/s" > /dev/null 2> "$tmp/s.err"
+test ! -s "$tmp/s.err"  # no progress line when stderr is not a terminal
+# On a terminal (script(1) gives one) both passes of kfx smooth report progress: the backward pass's
+# (done, total) increase to total = 40.
+if command -v script > /dev/null; then
+  script -qec "'$kfx' smooth '$model' --data '$tmp/sim/y.npy' -o '$tmp/st'" /dev/null > "$tmp/st.txt"
+  tr '\r' '\n' < "$tmp/st.txt" | grep -o 'smooth (forward pass): [0-9]*/40' > /dev/null
+  tr '\r' '\n' < "$tmp/st.txt" | grep -o 'smooth (backward pass): [0-9]*/40' | sed 's/.*: //; s,/40,,' > "$tmp/bw.txt"
+  test "$(tail -n 1 "$tmp/bw.txt")" -eq 40
+  sort -n -c "$tmp/bw.txt"
+else
+  echo "pipeline.sh: script(1) not installed: the terminal progress of kfx smooth not checked"
+fi
 for f in x_filt P_filt_diag x_pred P_pred_diag innovations; do test -s "$tmp/f/$f.npy"; done
 test -s "$tmp/s/x_smooth.npy"
 # Missing measurements: blank a value in the CSV and filter again.

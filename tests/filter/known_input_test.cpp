@@ -429,5 +429,71 @@ TEST_F(InvalidKnownInput, WrongShapeOrNonFiniteKnownInputSeries) {
   EXPECT_TRUE(ThrowsErrorStartingWith([&] { Simulate(model, TimeSeries::Zero(5, 1), SimulationOptions{5, 1}); }, "g:"));
 }
 
+// The single-step API (Predict / Update with g, the KalmanFilter class) against RunFilter on a time-varying
+// model with G, D, S and missing values, in every form: the same code, so the same numbers to rounding.
+TEST(SingleSteps, EqualRunFilterWithKnownInputCrossCovarianceAndMissingValues) {
+  const Index n = 3, m = 2, q = 2;
+  const int T = 8;
+  testing::TestRng rng(61);
+  std::vector<ModelStep> steps;
+  for (int k = 0; k < T; ++k) steps.push_back(RandomStep(rng, n, m, q, true));
+  const VectorXd m0 = rng.Gaussian(n, 1);
+  const MatrixXd P0 = rng.Spd(n, 0.5);
+  const Model model(steps, m0, P0);
+  const TimeSeries g = rng.Gaussian(T, q);
+  TimeSeries y = rng.Gaussian(T, m);
+  y(2, 1) = kNaN;
+  y.row(5).setConstant(kNaN);
+  for (const NamedForm& f : kAll) {
+    SCOPED_TRACE(f.name);
+    FilterRunOptions o = RunOptions(f);
+    o.store_covariances = true;
+    const FilterRun run = RunFilter(model, y, g, o);
+    Estimate e{m0, P0};
+    KalmanFilter kf(model, o.filter);
+    double log_likelihood = 0.0;
+    for (int k = 1; k <= T; ++k) {
+      const ModelStep& s = steps[static_cast<size_t>(k - 1)];
+      const VectorXd gk = g.row(k - 1).transpose();
+      const VectorXd yk = y.row(k - 1).transpose();
+      const Estimate prior = Predict(e, s, gk, o.filter);
+      EXPECT_MATRICES_NEAR(prior.x, run.x_pred.row(k).transpose(), 1e-12);
+      EXPECT_MATRICES_NEAR(prior.P, run.P_pred[static_cast<size_t>(k)], 1e-12);
+      const UpdateResult r = Update(prior, s, yk, gk, o.filter);
+      e = r.estimate;
+      log_likelihood += r.log_likelihood;
+      EXPECT_MATRICES_NEAR(e.x, run.x_filt.row(k).transpose(), 1e-12);
+      EXPECT_MATRICES_NEAR(e.P, run.P_filt[static_cast<size_t>(k)], 1e-12);
+      EXPECT_NEAR(r.log_likelihood, run.log_likelihood_terms(k - 1), 1e-12);
+      const UpdateResult c = kf.Step(yk, gk);
+      EXPECT_MATRICES_NEAR(c.estimate.x, e.x, 1e-12);
+      EXPECT_MATRICES_NEAR(c.estimate.P, e.P, 1e-12);
+    }
+    EXPECT_NEAR(log_likelihood, run.log_likelihood, 1e-12);
+  }
+}
+
+TEST_F(InvalidKnownInput, SingleStepsNameG) {
+  const Estimate e{m0_, P0_};
+  const VectorXd y = VectorXd::Zero(2);
+  const VectorXd g = VectorXd::Ones(2);
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { Predict(e, good_); }, "g:", {"length 2", "none"}));
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { Update(e, good_, y); }, "g:"));
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { Predict(e, good_, VectorXd::Ones(3)); }, "g:", {"length 3"}));
+  VectorXd g_nan = g;
+  g_nan(1) = kNaN;
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { Update(e, good_, y, g_nan); }, "g:"));
+  const ModelStep plain = MakeStep(good_.A, good_.C, good_.Q, good_.R);
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { Predict(e, plain, g); }, "g:", {"no known input"}));
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { Update(e, plain, y, g); }, "g:"));
+  EXPECT_NO_THROW(Update(e, plain, y, VectorXd()));
+  KalmanFilter kf(Model(good_, m0_, P0_));
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { kf.Predict(); }, "g:"));
+  EXPECT_EQ(kf.k(), 0);  // nothing changed
+  kf.Predict(g);
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { kf.Update(y); }, "g:"));
+  EXPECT_NO_THROW(kf.Update(y, g));
+}
+
 }  // namespace
 }  // namespace kfx

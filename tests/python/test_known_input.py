@@ -185,3 +185,77 @@ def test_exact_performance_input_errors_name_the_argument(driven):
     with pytest.raises(kfx.Error, match=r"^truth:"):
         kfx.exact_stationary_performance(model, kfx.constant_gain_as_linear_filter(model.step(1), np.zeros((3, 2)),
                                                                                      np.zeros(3)))
+def test_single_steps_with_input_and_s_equal_run_filter(driven):
+    """kfx.predict / kfx.update with input= step by step = run_filter (G, D, S, a missing value), 1e-12."""
+    model = kfx.Model(**driven)
+    T = 12
+    rng = np.random.default_rng(9)
+    g = rng.standard_normal((T, 2))
+    _, y = kfx.simulate(model, steps=T, seed=4, input=g)
+    y[3, 1] = np.nan
+    y[7, :] = np.nan
+    run = kfx.run_filter(model, y, store_covariances="full", input=g)
+    est = kfx.Estimate(driven["m0"], driven["P0"])
+    ll = 0.0
+    for k in range(1, T + 1):
+        step = model.step(k)
+        prior = kfx.predict(est, step, input=g[k - 1])
+        np.testing.assert_allclose(prior.x, run.x_pred[k], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(prior.P, run.P_pred[k], rtol=0, atol=1e-12)
+        r = kfx.update(prior, step, y[k - 1], input=g[k - 1])
+        est = r.estimate
+        ll += r.log_likelihood
+        np.testing.assert_allclose(est.x, run.x_filt[k], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(est.P, run.P_filt[k], rtol=0, atol=1e-12)
+    assert ll == pytest.approx(run.log_likelihood, abs=1e-12)
+
+
+def test_single_steps_name_g(driven):
+    model = kfx.Model(**driven)
+    step = model.step(1)
+    est = kfx.Estimate(driven["m0"], driven["P0"])
+    with pytest.raises(kfx.Error, match="^g: .*none"):
+        kfx.predict(est, step)
+    with pytest.raises(kfx.Error, match="^g: "):
+        kfx.update(est, step, np.zeros(2))
+    with pytest.raises(kfx.Error, match="^g: .*length 3"):
+        kfx.predict(est, step, input=np.ones(3))
+    plain = kfx.Model(**{k: v for k, v in driven.items() if k not in "GDS"}).step(1)
+    with pytest.raises(kfx.Error, match="^g: expected no known input"):
+        kfx.update(est, plain, np.zeros(2), input=np.ones(2))
+
+
+def test_mismatch_with_s_and_an_ignored_input_scalar_closed_form():
+    """kfx.mismatch: truth x = a x + h g + w, y = x + v, E[w v] = s; the design ignores S and the input."""
+    a, q, r, s, h, g, k = 0.6, 2.0, 1.5, -0.9, 0.7, 3.0, 0.45
+    truth = kfx.ModelStep(A=[[a]], C=[[1.0]], Q=[[q]], R=[[r]], G=[[h]], D=[[0.0]], S=[[s]])
+    design = kfx.ModelStep(A=[[a]], C=[[1.0]], Q=[[q]], R=[[r]])
+    st = kfx.mismatch.stationary_mismatched_covariance(design, truth, filter_gain=[[k]], input=[g])
+    F = (1 - k) * a
+    cov = ((1 - k) ** 2 * q + k * k * r - 2 * (1 - k) * k * s) / (1 - F * F)
+    mean = -(1 - k) * h * g / (1 - F)
+    assert st.error_mean[0] == pytest.approx(mean, abs=1e-13)
+    assert st.trace == pytest.approx(cov + mean * mean, abs=1e-12)
+    # On the design's steady-state gain (the default), the sequence from the design's steady state converges
+    # to the stationary solution (the same input at every step).
+    st = kfx.mismatch.stationary_mismatched_covariance(design, truth, input=[g])
+    dare = kfx.solve_filter_dare([[a]], [[1.0]], [[q]], [[r]])
+    dm = kfx.Model(A=[[a]], C=[[1.0]], Q=[[q]], R=[[r]], m0=[0.0], P0=dare.P_filt)
+    tm = kfx.Model(A=[[a]], C=[[1.0]], Q=[[q]], R=[[r]], G=[[h]], D=[[0.0]], S=[[s]], m0=[0.0], P0=[[1.0]])
+    seq = kfx.mismatch.mismatched_covariance_sequence(dm, tm, 200, input=np.full((200, 1), g))
+    assert seq["error_mean"][-1, 0] == pytest.approx(st.error_mean[0], abs=1e-9)
+    assert seq["trace"][-1] == pytest.approx(st.trace, rel=1e-9)
+    with pytest.raises(kfx.Error, match="^g: "):
+        kfx.mismatch.mismatched_covariance_sequence(dm, tm, 5)
+    with pytest.raises(kfx.Error, match="^options.input: "):
+        kfx.mismatch.stationary_mismatched_covariance(design, truth, filter_gain=[[k]])
+
+
+def test_patel_toda_bounds_refuse_what_does_not_hold():
+    design = kfx.ModelStep(A=[[0.5]], C=[[1.0]], Q=[[1.0]], R=[[1.0]])
+    b = kfx.mismatch.patel_toda_bounds(design, kfx.mismatch.ErrorRanges(S=[[0.9]]))
+    assert b["pi3"] is not None and b["pi4"] is None and b["pi6"] is None
+    assert [w[:4] for w in b["refused"]] == ["pi4:", "pi5:", "pi6:"]
+    b = kfx.mismatch.patel_toda_bounds(design, kfx.mismatch.ErrorRanges(Q=[[0.1]], unmodelled_input=True))
+    assert b["pi3"] is None and b["pi4"] is not None
+    assert b["refused"][0].startswith("pi3: the truth has a known input")

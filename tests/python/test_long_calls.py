@@ -205,6 +205,17 @@ def test_progress_is_monotone_throttled_and_ends_at_the_total():
     expect_error(lambda: kfx.run_filter(model, y[:5], progress=3), "progress", "callable")
 
 
+def test_smoother_progress_increases_to_the_total():
+    model, y = _long_filter_inputs(400)
+    run = kfx.run_filter(model, y, store_covariances="full")
+    seen = []
+    kfx.rts_smooth(model, run, progress=lambda done, total: seen.append((done, total)))
+    assert seen and seen[-1] == (400, 400)
+    assert all(t == 400 for _, t in seen)
+    assert all(a[0] < b[0] for a, b in zip(seen, seen[1:]))
+    expect_error(lambda: kfx.rts_smooth(model, run, progress=3), "progress", "callable")
+
+
 def test_an_exception_raised_by_progress_stops_the_call_and_propagates():
     model, y = _long_filter_inputs(50000)
 

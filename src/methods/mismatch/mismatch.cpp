@@ -1,15 +1,15 @@
 // Filters built on a wrong model (paper 002): the exact true error by 002's recursions (15)-(19),
-// time-varying and stationary, error ranges, and the search of an error box. The bounds of
-// Theorems 1-6 are in src/methods/mismatch/mismatch_bounds.cpp. API and equations: include/kfx/mismatch.hpp.
+// time-varying and stationary, with the truth's S and a known input (issue 22), and error ranges. The bounds
+// of Theorems 1-6 are in mismatch_bounds.cpp, the error-box search in mismatch_search.cpp. API and
+// equations: include/kfx/mismatch.hpp.
 #include "kfx/mismatch.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <limits>
-#include <random>
-#include <sstream>
+#include <string>
+#include <vector>
 
 #include "kfx/error.hpp"
 #include "kfx/kalman_filter.hpp"
@@ -60,6 +60,11 @@ bool ResolveFilterGain(const ModelStep& design, const MismatchOptions& options, 
     RequireFinite("options.filter_gain", options.filter_gain);
     *gain = options.filter_gain;
     return true;
+  }
+  if (design.has_cross_covariance()) {
+    throw Error(
+        "design: has a cross-covariance S: expected options.filter_gain (the steady-state gain of a "
+        "design with S is not computed here; 002's filter is designed without S)");
   }
   const DareSolution dare = SolveFilterDare(design.A, design.C, design.Q, design.R);
   if (!dare.summary.ok()) {
@@ -123,6 +128,50 @@ void CheckSameDimensions(const ModelStep& design, const ModelStep& truth) {
   }
 }
 
+// G g and D g of a step (zeros where it has no G, D), for a g that has been checked against the step.
+struct InputEffect {
+  VectorXd state, measurement;
+};
+InputEffect EffectOf(const ModelStep& s, const Eigen::Ref<const VectorXd>& g) {
+  InputEffect e{VectorXd::Zero(s.A.rows()), VectorXd::Zero(s.C.rows())};
+  if (s.G.size() > 0) e.state.noalias() = s.G * g;
+  if (s.D.size() > 0) e.measurement.noalias() = s.D * g;
+  return e;
+}
+
+// The error's input term b = L G_M g - (L + K dC) G_t g + K (D_t - D_M) g (kfx/mismatch.hpp).
+VectorXd InputTerm(const MatrixXd& L, const MatrixXd& LK, const MatrixXd& K, const InputEffect& design,
+                   const InputEffect& truth) {
+  VectorXd b = L * design.state - LK * truth.state;
+  b.noalias() += K * (truth.measurement - design.measurement);
+  return b;
+}
+
+// The constant input of the stationary analysis: of length q when design or truth has G or D, none otherwise.
+void RequireStationaryInput(const ModelStep& design, const ModelStep& truth, const VectorXd& g) {
+  if (!design.has_known_input() && !truth.has_known_input()) {
+    if (g.size() > 0) {
+      throw Error("options.input: expected none (neither design nor truth has G or D), got length " +
+                  std::to_string(g.size()));
+    }
+    return;
+  }
+  for (const ModelStep* s : {&design, &truth}) {
+    if (s->has_known_input() && g.size() != s->input_dim()) {
+      throw Error("options.input: expected the constant known input g of length " + std::to_string(s->input_dim()) +
+                  " (the " + (s == &design ? "design" : "truth") + "'s G, D), got " +
+                  (g.size() == 0 ? std::string("none") : "length " + std::to_string(g.size())));
+    }
+  }
+}
+
+// -(L + K dC) S_t K^T and its transpose: the truth's cross-covariance in the error's noise (zero without S).
+MatrixXd CrossNoiseTerm(const MatrixXd& LK, const MatrixXd& K, const ModelStep& truth) {
+  if (!truth.has_cross_covariance()) return MatrixXd::Zero(LK.rows(), LK.rows());
+  MatrixXd H = LK * truth.S * K.transpose();
+  return -(H + H.transpose());
+}
+
 }  // namespace
 
 // ---- errors ------------------------------------------------------------------------------------
@@ -143,6 +192,7 @@ ModelStep ApplyModelingErrors(const ModelStep& design, const ModelingErrors& err
   check("errors.C", errors.C, m, n, false);
   check("errors.Q", errors.Q, p, p, true);
   check("errors.R", errors.R, m, m, true);
+  check("errors.S", errors.S, n, m, false);
   const MatrixXd A = design.A - detail::OrZeros(errors.A, n, n);
   const MatrixXd C = design.C - detail::OrZeros(errors.C, m, n);
   MatrixXd R = design.R - detail::OrZeros(errors.R, m, m);
@@ -150,6 +200,11 @@ ModelStep ApplyModelingErrors(const ModelStep& design, const ModelingErrors& err
   MatrixXd W = noise_cov - detail::OrZeros(errors.Q, p, p);
   Symmetrize(W);
   ModelStep truth = design.B.size() > 0 ? MakeStepWithNoiseInput(A, design.B, W, C, R) : MakeStep(A, C, W, R);
+  if (design.has_cross_covariance() || errors.S.size() > 0) {
+    truth.S = detail::OrZeros(design.S, n, m) - detail::OrZeros(errors.S, n, m);
+  }
+  truth.G = design.G;
+  truth.D = design.D;
   try {
     ValidateStep(truth, n, m, "");
   } catch (const Error& e) {
@@ -175,6 +230,10 @@ ModelingErrors ModelingErrorsBetween(const ModelStep& design, const ModelStep& t
   } else {
     e.Q = design.Q - truth.Q;
   }
+  if (design.has_cross_covariance() || truth.has_cross_covariance()) {
+    const Index n = design.A.rows(), m = design.C.rows();
+    e.S = detail::OrZeros(design.S, n, m) - detail::OrZeros(truth.S, n, m);
+  }
   return e;
 }
 
@@ -183,6 +242,10 @@ ModelingErrors ModelingErrorsBetween(const ModelStep& design, const ModelStep& t
 bool MismatchOptions::IsValid(std::string* error) const {
   if (filter_gain.size() > 0 && !filter_gain.allFinite()) {
     if (error) *error = "filter_gain: expected finite entries";
+    return false;
+  }
+  if (input.size() > 0 && !input.allFinite()) {
+    if (error) *error = "input: expected finite entries (a known input has no missing values)";
     return false;
   }
   return true;
@@ -196,6 +259,7 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
   detail::ValidateDesignStep(design, "design: ");
   detail::ValidateDesignStep(truth, "truth: ");
   CheckSameDimensions(design, truth);
+  RequireStationaryInput(design, truth, options.input);
   const Index n = design.A.rows();
   StationaryMismatch out;
   Summary& sum = out.summary;
@@ -208,12 +272,13 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
   const MatrixXd& K = out.filter_gain;
   const MatrixXd& A = truth.A;
   const MatrixXd& AM = design.A;
+  const MatrixXd I = MatrixXd::Identity(n, n);
   const MatrixXd dA = AM - A;
   const MatrixXd dC = design.C - truth.C;
-  const MatrixXd L = MatrixXd::Identity(n, n) - K * design.C;  // (18)
-  const MatrixXd F = L * AM;                                   // the filter's transition
-  const MatrixXd dCp = L * dA - K * dC * AM + K * dC * dA;     // (19)
-  const MatrixXd LK = L + K * dC;                              // = I - K C
+  const MatrixXd L = I - K * design.C;                      // (18)
+  const MatrixXd F = L * AM;                                // the filter's transition
+  const MatrixXd dCp = L * dA - K * dC * AM + K * dC * dA;  // (19)
+  const MatrixXd LK = L + K * dC;                           // = I - K C
   out.true_spectral_radius = SpectralRadius(A);
   out.filter_spectral_radius = SpectralRadius(F);
   if (out.true_spectral_radius >= 1.0) {
@@ -228,28 +293,41 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
         "the filter is unstable: rho(L A_M) = " + std::to_string(out.filter_spectral_radius) + " >= 1, its error grows";
     return finish();
   }
-  // (17): U = A U A^T + G Q G^T.
+  // (17): U = A U A^T + G Q G^T (central moments first; the means are added at the end).
   if (!detail::SolveStein(A, truth.Q, "(17)", &out.U, &sum)) return finish();
   Symmetrize(out.U);
-  // (16): V = A V F^T + A U dC'^T - G Q G^T (L + K dC)^T, i.e. V + (-A) V F^T = rhs.
-  const MatrixXd rhs_v = A * out.U * dCp.transpose() - truth.Q * LK.transpose();
+  // (16): V = A V F^T + A U dC'^T - G Q G^T (L + K dC)^T (+ S_t K^T), i.e. V + (-A) V F^T = rhs.
+  MatrixXd rhs_v = A * out.U * dCp.transpose() - truth.Q * LK.transpose();
+  if (truth.has_cross_covariance()) rhs_v.noalias() += truth.S * K.transpose();
   const int info = SolveSylvesterSb04qd(-A, F.transpose(), rhs_v, &out.V);
   if (info != 0) {
     sum.termination = Termination::kFailed;
     sum.message = "Sylvester equation (16) (SLICOT SB04QD) failed, info = " + std::to_string(info);
     return finish();
   }
-  // (15): P = F P F^T + W.
+  // (15): P = F P F^T + W (+ the S terms).
   MatrixXd W = dCp * out.V * F.transpose();
   W += W.transpose().eval();
-  W += dCp * out.U * dCp.transpose() + LK * truth.Q * LK.transpose() + K * truth.R * K.transpose();
+  W += dCp * out.U * dCp.transpose() + LK * truth.Q * LK.transpose() + K * truth.R * K.transpose() +
+       CrossNoiseTerm(LK, K, truth);
   Symmetrize(W);
   if (!detail::SolveStein(F, W, "(15)", &out.P, &sum)) return finish();
   Symmetrize(out.P);
-  out.trace = out.P.trace();
   sum.relative_residual = std::max({RelativeResidual(out.U, A * out.U * A.transpose() + truth.Q),
                                     RelativeResidual(out.V, A * out.V * F.transpose() + rhs_v),
                                     RelativeResidual(out.P, F * out.P * F.transpose() + W)});
+  // The means of a constant input: E[x] = A E[x] + G_t g, E[x~] = F E[x~] + dC' E[x] + b.
+  out.state_mean = VectorXd::Zero(n);
+  out.error_mean = VectorXd::Zero(n);
+  if (options.input.size() > 0) {
+    const InputEffect ed = EffectOf(design, options.input), et = EffectOf(truth, options.input);
+    out.state_mean = (I - A).partialPivLu().solve(et.state);
+    out.error_mean = (I - F).partialPivLu().solve(dCp * out.state_mean + InputTerm(L, LK, K, ed, et));
+    out.P.noalias() += out.error_mean * out.error_mean.transpose();
+    out.V.noalias() += out.state_mean * out.error_mean.transpose();
+    out.U.noalias() += out.state_mean * out.state_mean.transpose();
+  }
+  out.trace = out.P.trace();
   sum.termination = Termination::kConverged;
   sum.message = "rho(A) = " + std::to_string(out.true_spectral_radius) +
                 ", rho(L A_M) = " + std::to_string(out.filter_spectral_radius);
@@ -257,6 +335,11 @@ StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const
 }
 
 MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth,
+                                              const MismatchSequenceOptions& options) {
+  return MismatchedCovarianceSequence(design, truth, TimeSeries(0, 0), options);
+}
+
+MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& truth, const TimeSeries& g,
                                               const MismatchSequenceOptions& options) {
   const int steps = options.steps;
   if (steps < 0) throw Error("options.steps: expected >= 0, got " + std::to_string(steps));
@@ -266,21 +349,29 @@ MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& 
   }
   const int T = design.ResolveSteps(steps, "options.steps");
   truth.ResolveSteps(T, "options.steps");
+  // g: for every model with G or D (the same q), none when neither has them.
+  if (truth.input_dim() > 0 || design.input_dim() == 0) RequireKnownInput(truth, g, T);
+  if (design.input_dim() > 0) RequireKnownInput(design, g, T);
   const Index n = design.state_dim();
   const KalmanSchedule schedule = ComputeKalmanSchedule(design, KalmanScheduleOptions{T});
   MismatchSequence out;
-  const VectorXd& mt = truth.m0();
-  const VectorXd& mm = design.m0();
-  MatrixXd U = truth.P0() + mt * mt.transpose();
-  MatrixXd V = mt * mm.transpose() - U;  // E[x_0 (m_M - x_0)^T]
-  const VectorXd d = mm - mt;
-  MatrixXd P = truth.P0() + d * d.transpose();
-  out.P.push_back(P);
-  out.V.push_back(V);
-  out.U.push_back(U);
-  out.filter_gain.emplace_back();
+  // Central moments and means (kfx/mismatch.hpp); out.P = Pc + mu mu^T etc. With x^_0 = m_M:
+  // Uc_0 = P0_t, Vc_0 = Cov(x_0, m_M - x_0) = -P0_t, Pc_0 = P0_t, E[x_0] = m_t, E[x~_0] = m_M - m_t.
+  MatrixXd U = truth.P0(), V = -truth.P0(), P = truth.P0();
+  VectorXd mx = truth.m0(), mu = design.m0() - truth.m0();
   out.trace.resize(T + 1);
-  out.trace(0) = P.trace();
+  out.error_mean.resize(T + 1, n);
+  out.state_mean.resize(T + 1, n);
+  const auto record = [&](int k, MatrixXd K) {
+    out.P.push_back(P + mu * mu.transpose());
+    out.V.push_back(V + mx * mu.transpose());
+    out.U.push_back(U + mx * mx.transpose());
+    out.filter_gain.push_back(std::move(K));
+    out.trace(k) = out.P.back().trace();
+    out.error_mean.row(k) = mu.transpose();
+    out.state_mean.row(k) = mx.transpose();
+  };
+  record(0, MatrixXd());
   const MatrixXd I = MatrixXd::Identity(n, n);
   for (int k = 1; k <= T; ++k) {
     const StepPtr sm = design.step(k);
@@ -294,19 +385,26 @@ MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& 
     const MatrixXd LK = L + K * dC;
     MatrixXd cross = dCp * V * F.transpose();
     MatrixXd Pn = F * P * F.transpose() + cross + cross.transpose() + dCp * U * dCp.transpose() +
-                  LK * st->Q * LK.transpose() + K * st->R * K.transpose();
+                  LK * st->Q * LK.transpose() + K * st->R * K.transpose() + CrossNoiseTerm(LK, K, *st);
     Symmetrize(Pn);
     MatrixXd Vn = st->A * V * F.transpose() + st->A * U * dCp.transpose() - st->Q * LK.transpose();
+    if (st->has_cross_covariance()) Vn.noalias() += st->S * K.transpose();
     MatrixXd Un = st->A * U * st->A.transpose() + st->Q;
     Symmetrize(Un);
+    VectorXd mun = F * mu + dCp * mx;
+    VectorXd mxn = st->A * mx;
+    if (g.cols() > 0) {
+      const VectorXd gk = g.row(k - 1).transpose();
+      const InputEffect ed = EffectOf(*sm, gk), et = EffectOf(*st, gk);
+      mun += InputTerm(L, LK, K, ed, et);
+      mxn += et.state;
+    }
     P = std::move(Pn);
     V = std::move(Vn);
     U = std::move(Un);
-    out.P.push_back(P);
-    out.V.push_back(V);
-    out.U.push_back(U);
-    out.filter_gain.push_back(K);
-    out.trace(k) = P.trace();
+    mu = std::move(mun);
+    mx = std::move(mxn);
+    record(k, K);
   }
   return out;
 }
@@ -339,6 +437,7 @@ void ValidateErrorRanges(const ModelStep& design, const ErrorRanges& ranges) {
   check("ranges.C", ranges.C, m, n, false);
   check("ranges.Q", ranges.Q, p, p, true);
   check("ranges.R", ranges.R, m, m, true);
+  check("ranges.S", ranges.S, n, m, false);
 }
 
 ErrorNorms ErrorNormsFromRanges(const ErrorRanges& ranges) {
@@ -349,205 +448,14 @@ ErrorNorms ErrorNormsFromRanges(const ErrorRanges& ranges) {
   e.C = ranges.C.stableNorm();
   e.Q = ranges.Q.stableNorm();
   e.R = ranges.R.stableNorm();
+  e.S = ranges.S.stableNorm();
   e.A_diagonal_abs_sum = ranges.A.size() > 0 ? ranges.A.diagonal().cwiseAbs().sum() : 0.0;
   return e;
 }
 
 ErrorNorms ErrorNormsOf(const ModelingErrors& errors) {
-  return ErrorNormsFromRanges({errors.A, errors.C, errors.Q, errors.R});
-}
-
-// ---- error box search --------------------------------------------------------------------------
-
-bool ErrorBoxSearchOptions::IsValid(std::string* error) const {
-  auto fail = [&](const std::string& m) {
-    if (error) *error = m;
-    return false;
-  };
-  if (max_corner_dimensions < 0 || max_corner_dimensions > 24)
-    return fail("max_corner_dimensions: expected 0..24, got " + std::to_string(max_corner_dimensions));
-  if (random_corners < 1) return fail("random_corners: expected >= 1, got " + std::to_string(random_corners));
-  if (!(step_tolerance > 0.0 && step_tolerance < 1.0))
-    return fail("step_tolerance: expected in (0, 1), got " + std::to_string(step_tolerance));
-  if (max_evaluations < 1) return fail("max_evaluations: expected >= 1, got " + std::to_string(max_evaluations));
-  return true;
-}
-
-namespace {
-
-struct FreeEntry {
-  int which;  // 0 A, 1 C, 2 Q, 3 R
-  Index i, j;
-  double range;
-};
-
-std::vector<FreeEntry> FreeEntries(const ErrorRanges& r) {
-  std::vector<FreeEntry> out;
-  const MatrixXd* mats[4] = {&r.A, &r.C, &r.Q, &r.R};
-  for (int w = 0; w < 4; ++w) {
-    const MatrixXd& m = *mats[w];
-    for (Index j = 0; j < m.cols(); ++j)
-      for (Index i = 0; i < m.rows(); ++i) {
-        if (w >= 2 && i > j) continue;  // symmetric: (i, j) and (j, i) move together
-        if (m(i, j) > 0.0) out.push_back({w, i, j, m(i, j)});
-      }
-  }
-  return out;
-}
-
-ModelingErrors ErrorsAt(const ModelStep& design, const std::vector<FreeEntry>& free, const VectorXd& theta) {
-  MatrixXd G, noise_cov;
-  detail::NoiseInputOf(design, &G, &noise_cov);
-  const Index n = design.A.rows(), m = design.C.rows(), p = noise_cov.rows();
-  ModelingErrors e;
-  e.A = MatrixXd::Zero(n, n);
-  e.C = MatrixXd::Zero(m, n);
-  e.Q = MatrixXd::Zero(p, p);
-  e.R = MatrixXd::Zero(m, m);
-  MatrixXd* mats[4] = {&e.A, &e.C, &e.Q, &e.R};
-  for (size_t k = 0; k < free.size(); ++k) {
-    const FreeEntry& f = free[k];
-    (*mats[f.which])(f.i, f.j) = theta(static_cast<Index>(k));
-    if (f.which >= 2) (*mats[f.which])(f.j, f.i) = theta(static_cast<Index>(k));
-  }
-  return e;
-}
-
-using Objective = std::function<bool(const ModelingErrors&, double*, ModelStep*)>;
-
-// Maximizes sign * value over the box: corners, then a compass search from the best corner and
-// from the centre.
-ErrorBoxExtreme SearchExtreme(const ModelStep& design, const std::vector<FreeEntry>& free, const Objective& f,
-                              double sign, const ErrorBoxSearchOptions& opt) {
-  ErrorBoxExtreme best;
-  const Index d = static_cast<Index>(free.size());
-  VectorXd range(d);
-  for (Index k = 0; k < d; ++k) range(k) = free[static_cast<size_t>(k)].range;
-  VectorXd best_theta = VectorXd::Zero(d);
-  auto eval = [&](const VectorXd& theta, double* value) {
-    if (best.evaluations >= opt.max_evaluations) return false;
-    ++best.evaluations;
-    ModelStep truth;
-    const ModelingErrors e = ErrorsAt(design, free, theta);
-    if (!f(e, value, &truth)) {
-      ++best.skipped;
-      return false;
-    }
-    if (!best.found || sign * *value > sign * best.value) {
-      best.found = true;
-      best.value = *value;
-      best.errors = e;
-      best.truth = truth;
-      best_theta = theta;
-    }
-    return true;
-  };
-  // Corners.
-  double v = 0.0;
-  if (d == 0) {
-    eval(VectorXd::Zero(0), &v);
-  } else if (d <= opt.max_corner_dimensions) {
-    const long count = 1L << d;
-    for (long c = 0; c < count && best.evaluations < opt.max_evaluations; ++c) {
-      VectorXd theta(d);
-      for (Index k = 0; k < d; ++k) theta(k) = ((c >> k) & 1) ? range(k) : -range(k);
-      ++best.corners;
-      eval(theta, &v);
-    }
-  } else {
-    std::mt19937_64 gen(1);
-    for (int c = 0; c < opt.random_corners && best.evaluations < opt.max_evaluations; ++c) {
-      VectorXd theta(d);
-      for (Index k = 0; k < d; ++k) theta(k) = (gen() & 1) ? range(k) : -range(k);
-      ++best.corners;
-      eval(theta, &v);
-    }
-  }
-  const double corner_value = best.value;
-  const bool corner_found = best.found;
-  if (opt.refine && d > 0) {
-    std::vector<VectorXd> starts;
-    if (best.found) starts.push_back(best_theta);
-    starts.push_back(VectorXd::Zero(d));
-    for (const VectorXd& start : starts) {
-      VectorXd theta = start;
-      double cur = 0.0;
-      if (!eval(theta, &cur)) continue;
-      VectorXd step = 0.5 * range;
-      while (best.evaluations < opt.max_evaluations && (step.array() / range.array()).maxCoeff() > opt.step_tolerance) {
-        bool improved = false;
-        for (Index k = 0; k < d && !improved; ++k) {
-          for (double s : {1.0, -1.0}) {
-            VectorXd trial = theta;
-            trial(k) = std::clamp(theta(k) + s * step(k), -range(k), range(k));
-            if (trial(k) == theta(k)) continue;
-            double val = 0.0;
-            if (eval(trial, &val) && sign * val > sign * cur + 1e-15 * std::abs(cur)) {
-              theta = trial;
-              cur = val;
-              improved = true;
-              break;
-            }
-          }
-        }
-        if (!improved) step *= 0.5;
-      }
-    }
-  }
-  if (best.found) {
-    best.at_corner = true;
-    for (Index k = 0; k < d; ++k) best.at_corner = best.at_corner && std::abs(best_theta(k)) == range(k);
-    best.refinement_gain = corner_found ? sign * (best.value - corner_value) : 0.0;
-  }
-  return best;
-}
-
-}  // namespace
-
-ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges, const MismatchOptions& options,
-                              const ErrorBoxSearchOptions& search) {
-  std::string why;
-  if (!search.IsValid(&why)) throw Error("search." + why);
-  if (!options.IsValid(&why)) throw Error("options." + why);
-  ValidateErrorRanges(design, ranges);
-  const auto start = std::chrono::steady_clock::now();
-  MismatchOptions fixed = options;
-  ErrorBoxSearch out;
-  out.summary.method = "corners, then compass search";
-  if (!detail::ResolveFilterGain(design, options, &fixed.filter_gain, &out.summary)) {
-    detail::FinishSummary("error-box search", start, &out.summary);
-    return out;
-  }
-  const std::vector<FreeEntry> free = FreeEntries(ranges);
-  out.free_entries = static_cast<int>(free.size());
-  const Objective true_error = [&](const ModelingErrors& e, double* value, ModelStep* truth) {
-    try {
-      *truth = ApplyModelingErrors(design, e);
-    } catch (const Error&) {
-      return false;
-    }
-    const StationaryMismatch s = StationaryMismatchedCovariance(design, *truth, fixed);
-    if (!s.summary.ok() || !std::isfinite(s.trace)) return false;
-    *value = s.trace;
-    return true;
-  };
-  const Objective optimal_error = [&](const ModelingErrors& e, double* value, ModelStep* truth) {
-    try {
-      *truth = ApplyModelingErrors(design, e);
-    } catch (const Error&) {
-      return false;
-    }
-    const DareSolution dare = SolveFilterDare(truth->A, truth->C, truth->Q, truth->R);
-    if (!dare.summary.ok()) return false;
-    *value = dare.P_filt.trace();
-    return std::isfinite(*value);
-  };
-  out.least_upper = SearchExtreme(design, free, true_error, 1.0, search);
-  out.greatest_lower = SearchExtreme(design, free, optimal_error, -1.0, search);
-  out.summary.termination = Termination::kConverged;
-  out.summary.iterations = out.least_upper.evaluations + out.greatest_lower.evaluations;
-  detail::FinishSummary("error-box search", start, &out.summary);
-  return out;
+  ErrorRanges r{errors.A, errors.C, errors.Q, errors.R, errors.S};
+  return ErrorNormsFromRanges(r);
 }
 
 }  // namespace kfx

@@ -51,9 +51,9 @@ double MinEigenvalueSym(const MatrixXd& m) {
 }
 
 void RequireNorms(const ErrorNorms& e) {
-  const double v[5] = {e.A, e.C, e.Q, e.R, e.A_diagonal_abs_sum};
-  const char* names[5] = {"|dA|_F", "|dC|_F", "|dQ|_F", "|dR|_F", "sum |dA_ii|"};
-  for (int i = 0; i < 5; ++i) {
+  const double v[6] = {e.A, e.C, e.Q, e.R, e.A_diagonal_abs_sum, e.S};
+  const char* names[6] = {"|dA|_F", "|dC|_F", "|dQ|_F", "|dR|_F", "sum |dA_ii|", "|dS|_F"};
+  for (int i = 0; i < 6; ++i) {
     if (!(v[i] >= 0.0) || !std::isfinite(v[i])) {
       throw Error(std::string("norms: expected finite non-negative error norms, got ") + names[i] + " = " +
                   std::to_string(v[i]) + " (for error ranges: their norm exceeds the range of double)");
@@ -68,6 +68,24 @@ void RequirePlantExact(const ErrorNorms& e, const char* theorem) {
                 " needs dA = 0 and dC = 0 (noise covariance errors only), got |dA| = " + std::to_string(e.A) +
                 ", |dC| = " + std::to_string(e.C));
   }
+}
+
+bool HasNonzeroS(const ModelStep& s) { return s.has_cross_covariance() && s.S.cwiseAbs().maxCoeff() > 0.0; }
+
+// Theorems 2, 4, 5 and 6 have no S term (docs/papers/002.md, "Beyond 002"): refused for a truth with S.
+void RequireNoCrossCovariance(const ErrorNorms& e, const ModelStep& design, const char* theorem) {
+  if (e.S != 0.0 || HasNonzeroS(design)) {
+    throw Error(std::string("norms: ") + theorem +
+                " does not hold when the truth has a cross-covariance S (|dS| = " + std::to_string(e.S) +
+                (HasNonzeroS(design) ? ", the design's S nonzero" : "") + "): see docs/papers/002.md, Beyond 002");
+  }
+}
+
+// -L S_M K^T - K S_M^T L^T: the design's own S in b (zero without S).
+MatrixXd DesignCrossTerm(const ModelStep& design, const MatrixXd& L, const MatrixXd& K) {
+  if (!design.has_cross_covariance()) return MatrixXd::Zero(L.rows(), L.rows());
+  const MatrixXd H = L * design.S * K.transpose();
+  return -(H + H.transpose());
 }
 
 void RequireComputedTerms(const DesignTerms& terms) {
@@ -112,7 +130,8 @@ DesignTerms ComputeDesignTerms(const ModelStep& design, const MismatchOptions& o
     return finish();
   }
   // B (25) = L G Q_M G^T L^T + K_M R_M K_M^T; i^T M^{-1} b = tr X, X = F X F^T + B.
-  MatrixXd B = t.L * design.Q * t.L.transpose() + t.filter_gain * design.R * t.filter_gain.transpose();
+  MatrixXd B = t.L * design.Q * t.L.transpose() + t.filter_gain * design.R * t.filter_gain.transpose() +
+               DesignCrossTerm(design, t.L, t.filter_gain);
   Symmetrize(B);
   MatrixXd X, Y;
   if (!detail::SolveStein(F, B, "(25)", &X, &sum)) return finish();
@@ -126,6 +145,11 @@ DesignTerms ComputeDesignTerms(const ModelStep& design, const MismatchOptions& o
 
 Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& errors, const MismatchOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  if (options.input.size() > 0) {
+    throw Error(
+        "options.input: Theorem 1 takes no known input (its D has no mean terms); use "
+        "StationaryMismatchedCovariance for the true error with an input");
+  }
   const DesignTerms t = ComputeDesignTerms(design, options);
   const ModelStep truth = ApplyModelingErrors(design, errors);
   Theorem1Result r;
@@ -164,10 +188,15 @@ Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& erro
   MatrixXd D = L * QM * dC.transpose() * K.transpose() + K * dC * QM * LK.transpose() +
                dCp * V * AM.transpose() * L.transpose() + L * AM * V.transpose() * dCp.transpose() +
                dCp * U * dCp.transpose() - LK * dQ * LK.transpose() - K * dR * K.transpose();
+  if (design.has_cross_covariance() || truth.has_cross_covariance()) {  // H + H^T, H = L S_M K^T - LK S_t K^T
+    MatrixXd H = -LK * truth.S * K.transpose();
+    if (design.has_cross_covariance()) H.noalias() += L * design.S * K.transpose();
+    D += H + H.transpose();
+  }
   Symmetrize(D);
   r.D_norm = D.norm();
   r.pi1 = t.nominal_trace + t.adjoint_norm * r.D_norm;
-  MatrixXd B = L * QM * L.transpose() + K * design.R * K.transpose();
+  MatrixXd B = L * QM * L.transpose() + K * design.R * K.transpose() + DesignCrossTerm(design, L, K);
   Symmetrize(B);
   MatrixXd X;
   if (!detail::SolveStein(F, B + D, "identity (22)", &X, &sum)) return finish();
@@ -178,6 +207,11 @@ Theorem1Result Theorem1Bound(const ModelStep& design, const ModelingErrors& erro
 
 double Theorem2Bound(const ModelStep& truth) {
   detail::ValidateDesignStep(truth, "truth: ");
+  if (HasNonzeroS(truth)) {
+    throw Error(
+        "truth.S: Theorem 2 does not hold for a truth with a cross-covariance S (its optimal filter uses "
+        "the correlation and can beat pi_2; docs/papers/002.md, Beyond 002)");
+  }
   const Index n = truth.A.rows();
   const Eigen::LLT<MatrixXd> r_llt(truth.R);
   const MatrixXd CA = truth.C * truth.A;
@@ -196,12 +230,14 @@ double Theorem3Bound(const DesignTerms& terms, const ErrorNorms& norms) {
   RequirePlantExact(norms, "Theorem 3");
   RequireComputedTerms(terms);
   const double lg = detail::SpectralNorm(terms.L * terms.G), k = detail::SpectralNorm(terms.filter_gain);
-  return terms.nominal_trace + terms.adjoint_norm * (lg * lg * norms.Q + k * k * norms.R);  // (33)
+  const double s = 2.0 * detail::SpectralNorm(terms.L) * k * norms.S;  // kfx's S term: D has L dS K^T + its transpose
+  return terms.nominal_trace + terms.adjoint_norm * (lg * lg * norms.Q + k * k * norms.R + s);  // (33)
 }
 
 double Theorem4Bound(const ModelStep& design, const ErrorNorms& norms, EigenvalueTerm eigenvalue_term) {
   RequirePlantExact(norms, "Theorem 4");
   detail::ValidateDesignStep(design, "design: ");
+  RequireNoCrossCovariance(norms, design, "Theorem 4");
   MatrixXd G, QM;
   detail::NoiseInputOf(design, &G, &QM);
   const Index n = design.A.rows();
@@ -279,6 +315,7 @@ LemmaBound LemmaStateBound(const ModelStep& design, double dA_norm) {
 Theorem5Result Theorem5Bound(const ModelStep& design, const DesignTerms& terms, const ErrorNorms& norms) {
   RequireNoiseExact(norms, "Theorem 5");
   RequireComputedTerms(terms);
+  RequireNoCrossCovariance(norms, design, "Theorem 5");
   Theorem5Result r;
   r.lemma = LemmaStateBound(design, norms.A);
   if (!r.lemma.applies()) {
@@ -307,6 +344,7 @@ Theorem5Result Theorem5Bound(const ModelStep& design, const DesignTerms& terms, 
 double Theorem6Bound(const ModelStep& design, const ErrorNorms& norms) {
   RequireNoiseExact(norms, "Theorem 6");
   detail::ValidateDesignStep(design, "design: ");
+  RequireNoCrossCovariance(norms, design, "Theorem 6");
   const Index n = design.A.rows();
   const double h = detail::SpectralNorm(design.C) + norms.C;
   const double r_inv = 1.0 / MinEigenvalueSym(design.R);
@@ -332,21 +370,47 @@ PatelTodaBounds ComputePatelTodaBounds(const ModelStep& design, const ErrorRange
     detail::FinishSummary("Patel-Toda bounds", start, &b.summary);
     return b;
   }
+  // Issue 22: the bounds that do not hold with the truth's S or an unmodelled input are refused, saying why.
+  const bool cross = b.norms.S > 0.0 || HasNonzeroS(design);
+  const char* kCrossWhy = "the truth has a cross-covariance S: ";
+  const char* kInputWhy =
+      "the truth has a known input the filter does not model: the error's mean (tr P includes |E x~|^2) "
+      "is not bounded by the ranges";
   if (ranges.PlantExact()) {
     ErrorNorms e = b.norms;
     e.A = e.C = e.A_diagonal_abs_sum = 0.0;
-    b.pi3 = Theorem3Bound(b.terms, e);
-    b.pi4 = Theorem4Bound(design, e);
+    if (ranges.unmodelled_input) {
+      b.refused.push_back(std::string("pi3: ") + kInputWhy);
+    } else {
+      b.pi3 = Theorem3Bound(b.terms, e);
+    }
+    if (cross) {
+      b.refused.push_back(std::string("pi4: ") + kCrossWhy +
+                          "its optimal filter uses the correlation and can have tr P_F below pi4");
+    } else {
+      b.pi4 = Theorem4Bound(design, e);
+    }
   }
   if (ranges.NoiseExact()) {
     ErrorNorms e = b.norms;
     e.Q = e.R = 0.0;
-    const Theorem5Result t5 = Theorem5Bound(design, b.terms, e);
-    b.pi5 = t5.pi5;
-    b.pi5_printed = t5.pi5_printed;
-    b.lemma = t5.lemma;
-    b.pi6 = Theorem6Bound(design, e);
+    if (cross || ranges.unmodelled_input) {
+      b.refused.push_back(std::string("pi5: ") +
+                          (cross ? std::string(kCrossWhy) + "Theorem 5's D has no S term" : kInputWhy));
+    } else {
+      const Theorem5Result t5 = Theorem5Bound(design, b.terms, e);
+      b.pi5 = t5.pi5;
+      b.pi5_printed = t5.pi5_printed;
+      b.lemma = t5.lemma;
+    }
+    if (cross) {
+      b.refused.push_back(std::string("pi6: ") + kCrossWhy +
+                          "its optimal filter uses the correlation and can have tr P_F below pi6");
+    } else {
+      b.pi6 = Theorem6Bound(design, e);
+    }
   }
+  for (const std::string& r : b.refused) b.summary.message += (b.summary.message.empty() ? "" : "; ") + r;
   b.summary.termination = Termination::kConverged;
   detail::FinishSummary("Patel-Toda bounds", start, &b.summary);
   return b;
