@@ -206,11 +206,11 @@ TEST_F(ModelFileTest, HorizonMakesAnInvariantModelASequence) {
 ModelStep RandomStep(TestRng& rng, Eigen::Index n, Eigen::Index m, Eigen::Index p) {
   if (p > 0) {
     // One draw per statement, in GCC's former order of the arguments (TestRng).
-    MatrixXd R = rng.Spd(m);
-    MatrixXd C = rng.Gaussian(m, n);
-    MatrixXd U = rng.Spd(p);
-    MatrixXd B = rng.Gaussian(n, p);
-    MatrixXd A = rng.WithSpectralRadius(n, 0.9);
+    Eigen::MatrixXd R = rng.Spd(m);
+    Eigen::MatrixXd C = rng.Gaussian(m, n);
+    Eigen::MatrixXd U = rng.Spd(p);
+    Eigen::MatrixXd B = rng.Gaussian(n, p);
+    Eigen::MatrixXd A = rng.WithSpectralRadius(n, 0.9);
     return MakeStepWithNoiseInput(std::move(A), std::move(B), std::move(U), std::move(C), std::move(R));
   }
   return RandomModelStep(rng, n, m, 0.9);
@@ -218,8 +218,8 @@ ModelStep RandomStep(TestRng& rng, Eigen::Index n, Eigen::Index m, Eigen::Index 
 
 TEST_F(ModelFileTest, RoundTripTimeInvariantIsBitwise) {
   TestRng rng(1);
-  const MatrixXd P0 = rng.Spd(3);  // one draw per statement, in GCC's former order of the arguments
-  const VectorXd x0 = rng.Gaussian(3, 1);
+  const Eigen::MatrixXd P0 = rng.Spd(3);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(3, 1);
   const Model model(RandomStep(rng, 3, 2, 0), x0, P0);
   SaveModel(Path("m.json"), model);
   EXPECT_TRUE(ModelsIdentical(LoadModel(Path("m.json")), model, 1));
@@ -229,8 +229,8 @@ TEST_F(ModelFileTest, RoundTripTimeInvariantIsBitwise) {
 
 TEST_F(ModelFileTest, RoundTripLargeMatricesGoToNpy) {
   TestRng rng(2);
-  const MatrixXd P0 = rng.Spd(25);  // one draw per statement, in GCC's former order of the arguments
-  const VectorXd x0 = rng.Gaussian(25, 1);
+  const Eigen::MatrixXd P0 = rng.Spd(25);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(25, 1);
   const Model model(RandomStep(rng, 25, 3, 0), x0, P0);
   SaveModel(Path("big.json"), model);  // 625 entries > inline_max_entries = 400
   EXPECT_TRUE(fs::exists(Path("big.A.npy")));
@@ -250,8 +250,8 @@ TEST_F(ModelFileTest, RoundTripLargeMatricesGoToNpy) {
 
 TEST_F(ModelFileTest, RoundTripNoiseInputIsBitwise) {
   TestRng rng(3);
-  const MatrixXd P0 = rng.Spd(4);  // one draw per statement, in GCC's former order of the arguments
-  const VectorXd x0 = rng.Gaussian(4, 1);
+  const Eigen::MatrixXd P0 = rng.Spd(4);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(4, 1);
   const Model model(RandomStep(rng, 4, 2, 2), x0, P0);
   SaveModel(Path("bu.json"), model);
   const Model back = LoadModel(Path("bu.json"));
@@ -277,8 +277,8 @@ TEST_F(ModelFileTest, RoundTripTimeVaryingIsBitwise) {
     s.Q = rng.Spd(3);
     steps.push_back(s);
   }
-  const MatrixXd P0 = rng.Spd(3);  // one draw per statement, in GCC's former order of the arguments
-  const VectorXd x0 = rng.Gaussian(3, 1);
+  const Eigen::MatrixXd P0 = rng.Spd(3);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(3, 1);
   const Model model(steps, x0, P0);
   SaveModel(Path("tv.json"), model);
   EXPECT_FALSE(fs::exists(Path("tv.A.npy")));  // 54 entries: inline
@@ -305,10 +305,10 @@ TEST_F(ModelFileTest, RoundTripTimeVaryingNoiseInputIsBitwise) {
   for (int k = 0; k < T; ++k) {
     // A constant, B and U time-varying: Q follows.
     // One draw per statement, in GCC's former order of the arguments (TestRng).
-    MatrixXd R = rng.Spd(1);
-    MatrixXd C = rng.Gaussian(1, 4);
-    MatrixXd U = rng.Spd(2);
-    MatrixXd B = rng.Gaussian(4, 2);
+    Eigen::MatrixXd R = rng.Spd(1);
+    Eigen::MatrixXd C = rng.Gaussian(1, 4);
+    Eigen::MatrixXd U = rng.Spd(2);
+    Eigen::MatrixXd B = rng.Gaussian(4, 2);
     steps.push_back(MakeStepWithNoiseInput(A, std::move(B), std::move(U), std::move(C), std::move(R)));
   }
   const Model model(steps, Eigen::VectorXd::Zero(4), Eigen::MatrixXd::Identity(4, 4));
