@@ -53,8 +53,9 @@ double BlockDiagonalSubsystemCost(Index c, Index d, Index r) {
 
 namespace {
 
-// Columns (rows) [first, first + count) of M. An empty M (r = 0
-// couplings, or d = 0) has a null data pointer that a block must not offset (UBSan).
+// Columns (rows) [first, first + count) of M. An empty M (r = 0 couplings, or d = 0) has a null data
+// pointer that a block must not offset (UBSan's null-pointer offset; not a BLAS matter, so kfx's
+// matrix-vector binding, src/base/eigen_gemv.hpp, does not make these two unnecessary).
 MatrixXd MiddleCols(const MatrixXd& M, Index first, Index count) {
   if (M.size() == 0) return MatrixXd(M.rows(), count);
   return M.middleCols(first, count);

@@ -134,7 +134,7 @@ void CoupledFilterSlice::Finish() {
   MatrixXd C1(r, r);
   detail::CouplingFactor factor;
   if (r > 0) factor = detail::BlockDiagonalFactor(w.U, N, &C1);
-  const VectorXd v = r > 0 ? VectorXd(C1 * ytnu) : VectorXd();  // mu_u (r = 0: no DGEMV with LDA = 0)
+  const VectorXd v = C1 * ytnu;  // mu_u (empty when r = 0)
   if (n > 0) {
     if (step_ == nullptr) throw Error("Finish: the step passed to Begin is gone");
     x_ = xp_;  // pass 2 adds J nu - E mu_u granule by granule

@@ -25,8 +25,9 @@ ModelStep CorrelatedStep(testing::TestRng& rng, Index n, Index m, double rho) {
   const MatrixXd F = rng.Gaussian(n + m, n + m) / std::sqrt(static_cast<double>(n + m));
   MatrixXd joint = F * F.transpose();
   joint.diagonal().array() += 0.1;
-  ModelStep s = MakeStep(rng.WithSpectralRadius(n, rho), rng.Gaussian(m, n), joint.topLeftCorner(n, n),
-                         joint.bottomRightCorner(m, m));
+  MatrixXd C = rng.Gaussian(m, n);  // one draw per statement, in GCC's former order of the arguments (TestRng)
+  MatrixXd A = rng.WithSpectralRadius(n, rho);
+  ModelStep s = MakeStep(std::move(A), std::move(C), joint.topLeftCorner(n, n), joint.bottomRightCorner(m, m));
   s.S = joint.topRightCorner(n, m);
   return s;
 }
@@ -37,7 +38,9 @@ TEST(ExactPerformanceWithCrossCovariance, KalmanFilterWithSOnItsOwnModelReturnsI
   const int T = 30;
   std::vector<ModelStep> steps;
   for (int k = 0; k < T; ++k) steps.push_back(CorrelatedStep(rng, n, m, 1.05));
-  const Model model(steps, rng.Gaussian(n, 1), rng.Spd(n));
+  const MatrixXd P0 = rng.Spd(n);
+  const VectorXd x0 = rng.Gaussian(n, 1);
+  const Model model(steps, x0, P0);
   const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{T});
   const PerformanceResult perf = ExactPerformance(model, KalmanAsLinearFilter(model, sch));
   for (int k = 0; k <= T; ++k) {

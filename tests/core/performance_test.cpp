@@ -25,9 +25,11 @@ TEST(ExactPerformance, KalmanFilterOnItsOwnModelReturnsItsCovariance) {
   // Time-varying model: A_k, C_k change with k.
   std::vector<ModelStep> steps;
   for (int k = 0; k < 30; ++k) {
-    steps.push_back(MakeStep(rng.WithSpectralRadius(n, 1.05), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m)));
+    steps.push_back(RandomModelStep(rng, n, m, 1.05));
   }
-  Model model(steps, rng.Gaussian(n, 1), rng.Spd(n));
+  const MatrixXd P0 = rng.Spd(n);  // one draw per statement, in GCC's former order of the arguments (TestRng)
+  const VectorXd x0 = rng.Gaussian(n, 1);
+  Model model(steps, x0, P0);
   const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{30});
   const PerformanceResult perf = ExactPerformance(model, KalmanAsLinearFilter(model, sch));
   ASSERT_EQ(perf.error_moment.size(), 31u);
@@ -65,7 +67,7 @@ TEST(ExactPerformance, ScalarConstantGainClosedForm) {
 TEST(ExactPerformance, MismatchedFilterAgreesWithMonteCarlo) {
   kfx::testing::TestRng rng(4);
   const Eigen::Index n = 3, m = 2;
-  const ModelStep truth_step = MakeStep(rng.WithSpectralRadius(n, 0.97), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const ModelStep truth_step = RandomModelStep(rng, n, m, 0.97);
   ModelStep design = truth_step;
   design.A *= 0.9;
   design.Q *= 0.2;
@@ -104,10 +106,13 @@ TEST(ExactPerformance, MismatchedFilterAgreesWithMonteCarlo) {
 TEST(ExactPerformance, StationaryJointMatchesLongHorizonAndReducedOutputMap) {
   kfx::testing::TestRng rng(8);
   const Eigen::Index n = 4, m = 2, nz = 2;
-  Model truth(MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m)), VectorXd::Zero(n),
-              MatrixXd::Identity(n, n));
-  // A reduced-order filter: z in R^2, estimate O z (a fixed arbitrary stable filter).
-  LinearFilterStep fs{0.5 * rng.WithSpectralRadius(nz, 1.0), rng.Gaussian(nz, m), rng.Gaussian(n, nz)};
+  Model truth(RandomModelStep(rng, n, m, 0.9), VectorXd::Zero(n), MatrixXd::Identity(n, n));
+  // A reduced-order filter: z in R^2, estimate O z (a fixed arbitrary stable filter). Braces evaluate
+  // in order: Phi, then K, then O.
+  LinearFilterStep fs;
+  fs.Phi = 0.5 * rng.WithSpectralRadius(nz, 1.0);
+  fs.K = rng.Gaussian(nz, m);
+  fs.O = rng.Gaussian(n, nz);
   LinearFilter f(fs, VectorXd::Zero(nz));
   const StationaryPerformance st = ExactStationaryPerformance(truth, f);
   ASSERT_EQ(st.method, StationaryMethod::kJoint);
@@ -175,8 +180,9 @@ TEST(ExactPerformance, InvalidInputsThrow) {
 TEST(RunLinearFilter, KalmanAsLinearFilterReproducesTheOnlineFilter) {
   kfx::testing::TestRng rng(31);
   const Eigen::Index n = 3, m = 2;
-  Model model(MakeStep(rng.WithSpectralRadius(n, 1.0), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m)), rng.Gaussian(n, 1),
-              rng.Spd(n));
+  const MatrixXd P0 = rng.Spd(n);  // one draw per statement, in GCC's former order of the arguments (TestRng)
+  const VectorXd x0 = rng.Gaussian(n, 1);
+  Model model(RandomModelStep(rng, n, m, 1.0), x0, P0);
   TimeSeries y(12, m);
   for (int k = 0; k < 12; ++k) y.row(k) = rng.Gaussian(1, m);
   const TimeSeries est =

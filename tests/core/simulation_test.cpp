@@ -49,7 +49,11 @@ TEST(PsdFactor, ReproducesSemidefiniteMatrices) {
 TEST(Simulate, ReproducibleShapesAndCovariance) {
   kfx::testing::TestRng rng(9);
   const Eigen::Index n = 3, m = 2;
-  MatrixXd A = rng.WithSpectralRadius(n, 0.9), C = rng.Gaussian(m, n), Q = rng.Spd(n), R = rng.Spd(m), P0 = rng.Spd(n);
+  MatrixXd A = rng.WithSpectralRadius(n, 0.9);
+  MatrixXd C = rng.Gaussian(m, n);
+  MatrixXd Q = rng.Spd(n);
+  MatrixXd R = rng.Spd(m);
+  MatrixXd P0 = rng.Spd(n);
   VectorXd m0 = rng.Gaussian(n, 1);
   Model model(MakeStep(A, C, Q, R), m0, P0);
   const Trajectory t1 = Simulate(model, {10, 5}), t2 = Simulate(model, {10, 5});
@@ -86,8 +90,8 @@ TEST(Simulate, ReproducibleShapesAndCovariance) {
 
 TEST(Simulate, ProgressCountsEveryStepAndLeavesTheTrajectoryAlone) {
   kfx::testing::TestRng rng(2);
-  Model model(MakeStep(rng.WithSpectralRadius(3, 0.9), rng.Gaussian(2, 3), rng.Spd(3), rng.Spd(2)), VectorXd::Zero(3),
-              rng.Spd(3));
+  const MatrixXd P0 = rng.Spd(3);  // one draw per statement, in GCC's former order of the arguments (TestRng)
+  Model model(RandomModelStep(rng, 3, 2, 0.9), VectorXd::Zero(3), P0);
   std::vector<long> steps;
   SimulationOptions o{12, 4};
   o.progress = [&](long done, long total) {

@@ -78,7 +78,7 @@ TEST(StationaryBlocks, AgreesWithTheKroneckerSolveOfTheJointEquation) {
   TestRng rng(31);
   for (const auto& [n, nz, m] :
        {std::tuple{1, 1, 1}, std::tuple{2, 3, 1}, std::tuple{4, 2, 2}, std::tuple{5, 5, 2}, std::tuple{6, 4, 3}}) {
-    const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+    const ModelStep s = RandomModelStep(rng, n, m, 0.9);
     const Model truth(s, VectorXd::Zero(n), rng.Spd(n));
     const LinearFilterStep f = RandomFilter(rng, nz, n, m, nz == n && n % 2 == 1);
     const StationaryPerformance p = ExactStationaryPerformance(truth, LinearFilter(f, VectorXd::Zero(nz)));
@@ -99,8 +99,9 @@ TEST(StationaryBlocks, RandomSizesAgreeWithTheDenseJointSolve) {
   std::uniform_int_distribution<int> size(10, 70);
   TestRng rng(32);
   for (int trial = 0; trial < 4; ++trial) {
-    const int n = size(sizes), m = 1 + size(sizes) / 10;
-    const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.97), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+    const int n = size(sizes);
+    const int m = 1 + size(sizes) / 10;
+    const ModelStep s = RandomModelStep(rng, n, m, 0.97);
     const Model truth(s, VectorXd::Zero(n), rng.Spd(n));
     const StationaryTruth shared(truth);
     ASSERT_TRUE(shared.summary().ok());
@@ -134,7 +135,7 @@ TEST(StationaryBlocks, RandomSizesAgreeWithTheDenseJointSolve) {
 TEST(StationaryBlocks, UnstableTruthKeepsTheErrorCoordinatesRoute) {
   TestRng rng(33);
   const int n = 4, m = 2;
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.02), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const ModelStep s = RandomModelStep(rng, n, m, 1.02);
   const StationaryTruth shared(Model(s, VectorXd::Zero(n), rng.Spd(n)));
   EXPECT_EQ(shared.summary().termination, Termination::kUnstable);
   EXPECT_EQ(shared.state_covariance().size(), 0);
@@ -154,11 +155,13 @@ TEST(StationaryBlocks, UnstableTruthKeepsTheErrorCoordinatesRoute) {
 
 TEST(StationaryBlocks, RejectsATimeVaryingModelAndAnIncompatibleFilter) {
   TestRng rng(34);
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(3, 0.5), rng.Gaussian(1, 3), rng.Spd(3), rng.Spd(1));
+  const ModelStep s = RandomModelStep(rng, 3, 1, 0.5);
   const Model varying(std::vector<ModelStep>{s, s}, VectorXd::Zero(3), rng.Spd(3));
   EXPECT_TRUE(kfx::testing::ThrowsErrorStartingWith([&] { StationaryTruth{varying}; }, "truth:"));
   const StationaryTruth shared(Model(s, VectorXd::Zero(3), rng.Spd(3)));
-  LinearFilterStep f{rng.WithSpectralRadius(3, 0.5), rng.Gaussian(3, 2), MatrixXd()};
+  LinearFilterStep f;  // (braces evaluated in order: Phi, then K)
+  f.Phi = rng.WithSpectralRadius(3, 0.5);
+  f.K = rng.Gaussian(3, 2);
   EXPECT_TRUE(kfx::testing::ThrowsErrorStartingWith(
       [&] { ExactStationaryPerformance(shared, LinearFilter(f, VectorXd::Zero(3))); }, "filter:"));
 }

@@ -283,7 +283,8 @@ TEST(CoupledModelFile, SlicesReadByOffsetEqualTheSlicedSystem) {
   const Index n = 9, c = 2, d = 2, r = 3;
   MatrixXd P0(c, n * c);
   for (Index i = 0; i < n; ++i) P0.middleCols(i * c, c) = rng.Spd(c, 0.5);
-  const CoupledSystem sys(RandomStep(rng, n, c, d, r), rng.Gaussian(n * c, 1), P0);
+  const VectorXd x0 = rng.Gaussian(n * c, 1);  // one draw per statement, in GCC's former order (TestRng)
+  const CoupledSystem sys(RandomStep(rng, n, c, d, r), x0, P0);
   SaveCoupledModel(dir + "/m.json", sys);
   const CoupledModelHeader h = ReadCoupledModelHeader(dir + "/m.json");
   EXPECT_EQ(h.n, n);

@@ -55,8 +55,11 @@ TEST(BlasCalls, SymmetricMatrixVectorProductsStayInEigen) {
   EXPECT_THROW(RequirePositiveSemidefinite("P", (MatrixXd(2, 2) << 1, 2, 2, 1).finished()), Error);
   const int n = 2, m = 1;
   const MatrixXd A = rng.WithSpectralRadius(n, 0.9);
-  const Model model(MakeStep(A, rng.Gaussian(m, n), rng.Spd(n, 0.1), rng.Spd(m, 0.2)), VectorXd::Zero(n),
-                    rng.Spd(n, 1.0));
+  const MatrixXd P0 = rng.Spd(n, 1.0);  // one draw per statement, in GCC's former order of the arguments
+  const MatrixXd R = rng.Spd(m, 0.2);
+  const MatrixXd Q = rng.Spd(n, 0.1);
+  const MatrixXd C = rng.Gaussian(m, n);
+  const Model model(MakeStep(A, C, Q, R), VectorXd::Zero(n), P0);
   FilterRunOptions o;
   o.monitor_health = true;
   const FilterRun run = RunFilter(model, Simulate(model, {100, 5}).y, o);

@@ -78,6 +78,12 @@ TEST(RobustFilter, FactoredFormsEqualConventionalOnWellConditionedProblem) {
   }
 }
 
+// 2-norm condition number sigma_max / sigma_min.
+double Condition(const MatrixXd& m) {
+  const Eigen::VectorXd s = Eigen::JacobiSVD<MatrixXd>(m).singularValues();
+  return s(0) / s(s.size() - 1);
+}
+
 // Q = B U B^T with fewer noise inputs than states (rank-deficient, as in every mechanical model driven by
 // forces): the square-root and UD forms factor Q; Eigen's LDL^T can give up on such a Q after a zero pivot
 // that rounding made a tiny nonzero one ("LDL^T factorization failed" on examples/models/
@@ -91,15 +97,28 @@ TEST(RobustFilter, FactoredFormsAcceptRankDeficientProcessNoise) {
     MatrixXd B = rng.Gaussian(n, p);
     B.topRows(n / 2) *= 1e-3;  // as a zero-order hold gives: small on positions, O(dt) on velocities
     const MatrixXd C = rng.Gaussian(m, n);
-    const MatrixXd P0 = rng.Spd(n, 1.0), R = rng.Spd(m, 0.1);  // one draw per statement (TestRng)
+    const MatrixXd P0 = rng.Spd(n, 1.0);  // one draw per statement (TestRng)
+    const MatrixXd R = rng.Spd(m, 0.1);
     const Model model(MakeStepWithNoiseInput(A, B, MatrixXd::Identity(p, p), C, R), VectorXd::Zero(n), P0);
     const TimeSeries y = Simulate(model, {40, seed}).y;
     const FilterRun ref = RunFilter(model, y, RunOptions(kJoseph));
+    // The problem is well conditioned (a relative perturbation of 1e-15 of A and C moves x_filt by 3e-14
+    // for seed 6), and the square-root and UD forms agree with Joseph to 5e-15. The information form
+    // is not backward stable here: each time update applies A^{-1} on both sides of Y = P^{-1}
+    // (M = A^{-T} Y A^{-1}), and x comes back through Y^{-1}, so its error is of the order
+    // eps cond(A)^2 cond(P) |x| (A has cond 1.4e3 at spectral radius 0.99; docs/robustness.md, "open
+    // questions": 1.2e-8 on Clang's former draw of seed 6, 6.6e-9 on GCC's).
+    double cond_p = 1.0;
+    for (const MatrixXd& P : ref.P_filt) cond_p = std::max(cond_p, Condition(P));
+    const double cond_a = Condition(A), x_max = MatrixXd(ref.x_filt).cwiseAbs().maxCoeff();
+    const double info_bound = std::numeric_limits<double>::epsilon() * cond_a * cond_a * cond_p;
     for (const NamedForm& f : kFactored) {
       SCOPED_TRACE(f.name);
       const FilterRun run = RunFilter(model, y, RunOptions(f));
-      EXPECT_MATRICES_NEAR(run.x_filt, ref.x_filt, 1e-8);
-      EXPECT_NEAR(run.log_likelihood, ref.log_likelihood, 1e-8 * std::abs(ref.log_likelihood));
+      const bool info = f.form == FilterForm::kInformation;
+      EXPECT_MATRICES_NEAR(run.x_filt, ref.x_filt, info ? std::max(1e-8, info_bound * x_max) : 1e-8);
+      EXPECT_NEAR(run.log_likelihood, ref.log_likelihood,
+                  (info ? std::max(1e-8, info_bound) : 1e-8) * std::abs(ref.log_likelihood));
     }
   }
 }

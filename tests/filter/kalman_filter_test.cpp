@@ -91,7 +91,7 @@ TEST(KalmanFilter, RiccatiRecursionConvergesToDare) {
   kfx::testing::TestRng rng(7);
   for (const Eigen::Index n : {2, 5, 20}) {
     const Eigen::Index m = std::max<Eigen::Index>(1, n / 2);
-    const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.1), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+    const ModelStep s = RandomModelStep(rng, n, m, 1.1);
     Model model(s, VectorXd::Zero(n), MatrixXd::Identity(n, n));
     const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{400});
     const DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
@@ -106,7 +106,7 @@ TEST(KalmanFilter, RiccatiRecursionConvergesToDare) {
 TEST(KalmanFilter, JosephAndStandardFormsAgreeOnWellConditionedProblem) {
   kfx::testing::TestRng rng(3);
   const Eigen::Index n = 6, m = 3;
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const ModelStep s = RandomModelStep(rng, n, m, 0.9);
   Model model(s, VectorXd::Zero(n), MatrixXd::Identity(n, n));
   KalmanFilterOptions standard;
   standard.update_form = CovarianceUpdateForm::kStandard;
@@ -119,7 +119,7 @@ TEST(KalmanFilter, JosephAndStandardFormsAgreeOnWellConditionedProblem) {
 TEST(KalmanFilter, ClassMatchesFunctionsAndRun) {
   kfx::testing::TestRng rng(11);
   const Eigen::Index n = 4, m = 2;
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const ModelStep s = RandomModelStep(rng, n, m, 0.95);
   Model model(s, rng.Gaussian(n, 1), MatrixXd::Identity(n, n));
   const Trajectory tr = Simulate(model, {20, 5});
   const FilterRun run = RunFilter(model, tr.y);
@@ -141,8 +141,9 @@ TEST(KalmanFilter, SymmetricBlasProductsMatchTextbookFormulas) {
   kfx::testing::TestRng rng(29);
   for (const Eigen::Index n : {31, 32, 60}) {
     const Eigen::Index m = 7;
-    const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
-    const Estimate e{rng.Gaussian(n, 1), rng.Spd(n)};
+    const ModelStep s = RandomModelStep(rng, n, m, 0.9);
+    const VectorXd x = rng.Gaussian(n, 1);  // one draw per statement (braces evaluated x, then P)
+    const Estimate e{x, rng.Spd(n)};
     const Estimate pred = Predict(e, s);
     const MatrixXd P_pred = s.A * e.P * s.A.transpose() + s.Q;
     EXPECT_MATRICES_NEAR(pred.P, P_pred, 1e-13 * P_pred.norm());
@@ -176,7 +177,7 @@ TEST(KalmanFilter, SmallSizePathMatchesDynamicPathOnAnEmbeddedSystem) {
     const Eigen::Index n = sh.n, m = sh.m, p = 10 - n, N = n + p;
     std::vector<ModelStep> small, large;
     for (int k = 0; k < 6; ++k) {  // time-varying, cycled over 60 steps
-      ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+      ModelStep s = RandomModelStep(rng, n, m, 0.95);
       MatrixXd A = MatrixXd::Zero(N, N), Q = MatrixXd::Zero(N, N), C = MatrixXd::Zero(m, N);
       A.topLeftCorner(n, n) = s.A;
       A.bottomRightCorner(p, p) = 0.5 * MatrixXd::Identity(p, p);
@@ -233,7 +234,7 @@ TEST(KalmanFilter, SmallSizePathMatchesDynamicPathOnAnEmbeddedSystem) {
 TEST(KalmanFilter, SteadyStateFastPathMatchesFullRecursion) {
   kfx::testing::TestRng rng(17);
   const Eigen::Index n = 5, m = 2;
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.95), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const ModelStep s = RandomModelStep(rng, n, m, 0.95);
   Model model(s, rng.Gaussian(n, 1), MatrixXd::Identity(n, n));
   TimeSeries y = Simulate(model, {300, 4}).y;
   y(200, 1) = kNaN;
@@ -298,7 +299,7 @@ double BatchLogLikelihood(const ModelStep& s, const VectorXd& m0, const MatrixXd
 TEST(KalmanFilter, LogLikelihoodEqualsStackedGaussianDensityWithMissingData) {
   kfx::testing::TestRng rng(21);
   const Eigen::Index n = 3, m = 2;
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.05), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const ModelStep s = RandomModelStep(rng, n, m, 1.05);
   const VectorXd m0 = rng.Gaussian(n, 1);
   const MatrixXd P0 = rng.Spd(n);
   Model model(s, m0, P0);
@@ -316,8 +317,9 @@ TEST(KalmanFilter, LogLikelihoodEqualsStackedGaussianDensityWithMissingData) {
 TEST(KalmanFilter, MissingMeasurementsUseObservedRowsOnly) {
   kfx::testing::TestRng rng(5);
   const Eigen::Index n = 4, m = 3;
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
-  const Estimate prior{rng.Gaussian(n, 1), rng.Spd(n)};
+  const ModelStep s = RandomModelStep(rng, n, m, 0.9);
+  const VectorXd x0 = rng.Gaussian(n, 1);  // one draw per statement (braces evaluated x, then P)
+  const Estimate prior{x0, rng.Spd(n)};
   VectorXd y = rng.Gaussian(m, 1);
   // All missing: the estimate is the prior.
   const UpdateResult none = Update(prior, s, VectorXd::Constant(m, kNaN));
@@ -344,7 +346,7 @@ TEST(RtsSmoother, MatchesBatchInformationFormSolution) {
   kfx::testing::TestRng rng(13);
   const Eigen::Index n = 3, m = 1;
   const int T = 7;
-  const ModelStep s = MakeStep(rng.WithSpectralRadius(n, 1.02), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  const ModelStep s = RandomModelStep(rng, n, m, 1.02);
   const VectorXd m0 = rng.Gaussian(n, 1);
   const MatrixXd P0 = rng.Spd(n);
   Model model(s, m0, P0);

@@ -205,15 +205,22 @@ TEST_F(ModelFileTest, HorizonMakesAnInvariantModelASequence) {
 
 ModelStep RandomStep(TestRng& rng, Eigen::Index n, Eigen::Index m, Eigen::Index p) {
   if (p > 0) {
-    return MakeStepWithNoiseInput(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(n, p), rng.Spd(p), rng.Gaussian(m, n),
-                                  rng.Spd(m));
+    // One draw per statement, in GCC's former order of the arguments (TestRng).
+    Eigen::MatrixXd R = rng.Spd(m);
+    Eigen::MatrixXd C = rng.Gaussian(m, n);
+    Eigen::MatrixXd U = rng.Spd(p);
+    Eigen::MatrixXd B = rng.Gaussian(n, p);
+    Eigen::MatrixXd A = rng.WithSpectralRadius(n, 0.9);
+    return MakeStepWithNoiseInput(std::move(A), std::move(B), std::move(U), std::move(C), std::move(R));
   }
-  return MakeStep(rng.WithSpectralRadius(n, 0.9), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m));
+  return RandomModelStep(rng, n, m, 0.9);
 }
 
 TEST_F(ModelFileTest, RoundTripTimeInvariantIsBitwise) {
   TestRng rng(1);
-  const Model model(RandomStep(rng, 3, 2, 0), rng.Gaussian(3, 1), rng.Spd(3));
+  const Eigen::MatrixXd P0 = rng.Spd(3);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(3, 1);
+  const Model model(RandomStep(rng, 3, 2, 0), x0, P0);
   SaveModel(Path("m.json"), model);
   EXPECT_TRUE(ModelsIdentical(LoadModel(Path("m.json")), model, 1));
   // Small model: everything inline.
@@ -222,7 +229,9 @@ TEST_F(ModelFileTest, RoundTripTimeInvariantIsBitwise) {
 
 TEST_F(ModelFileTest, RoundTripLargeMatricesGoToNpy) {
   TestRng rng(2);
-  const Model model(RandomStep(rng, 25, 3, 0), rng.Gaussian(25, 1), rng.Spd(25));
+  const Eigen::MatrixXd P0 = rng.Spd(25);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(25, 1);
+  const Model model(RandomStep(rng, 25, 3, 0), x0, P0);
   SaveModel(Path("big.json"), model);  // 625 entries > inline_max_entries = 400
   EXPECT_TRUE(fs::exists(Path("big.A.npy")));
   EXPECT_TRUE(fs::exists(Path("big.Q.npy")));
@@ -241,7 +250,9 @@ TEST_F(ModelFileTest, RoundTripLargeMatricesGoToNpy) {
 
 TEST_F(ModelFileTest, RoundTripNoiseInputIsBitwise) {
   TestRng rng(3);
-  const Model model(RandomStep(rng, 4, 2, 2), rng.Gaussian(4, 1), rng.Spd(4));
+  const Eigen::MatrixXd P0 = rng.Spd(4);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(4, 1);
+  const Model model(RandomStep(rng, 4, 2, 2), x0, P0);
   SaveModel(Path("bu.json"), model);
   const Model back = LoadModel(Path("bu.json"));
   EXPECT_TRUE(ModelsIdentical(back, model, 1));
@@ -266,7 +277,9 @@ TEST_F(ModelFileTest, RoundTripTimeVaryingIsBitwise) {
     s.Q = rng.Spd(3);
     steps.push_back(s);
   }
-  const Model model(steps, rng.Gaussian(3, 1), rng.Spd(3));
+  const Eigen::MatrixXd P0 = rng.Spd(3);  // one draw per statement, in GCC's former order of the arguments
+  const Eigen::VectorXd x0 = rng.Gaussian(3, 1);
+  const Model model(steps, x0, P0);
   SaveModel(Path("tv.json"), model);
   EXPECT_FALSE(fs::exists(Path("tv.A.npy")));  // 54 entries: inline
   EXPECT_TRUE(ModelsIdentical(LoadModel(Path("tv.json")), model, T));
@@ -291,7 +304,12 @@ TEST_F(ModelFileTest, RoundTripTimeVaryingNoiseInputIsBitwise) {
   const Eigen::MatrixXd A = rng.WithSpectralRadius(4, 0.9);
   for (int k = 0; k < T; ++k) {
     // A constant, B and U time-varying: Q follows.
-    steps.push_back(MakeStepWithNoiseInput(A, rng.Gaussian(4, 2), rng.Spd(2), rng.Gaussian(1, 4), rng.Spd(1)));
+    // One draw per statement, in GCC's former order of the arguments (TestRng).
+    Eigen::MatrixXd R = rng.Spd(1);
+    Eigen::MatrixXd C = rng.Gaussian(1, 4);
+    Eigen::MatrixXd U = rng.Spd(2);
+    Eigen::MatrixXd B = rng.Gaussian(4, 2);
+    steps.push_back(MakeStepWithNoiseInput(A, std::move(B), std::move(U), std::move(C), std::move(R)));
   }
   const Model model(steps, Eigen::VectorXd::Zero(4), Eigen::MatrixXd::Identity(4, 4));
   SaveModelOptions options;
@@ -337,7 +355,9 @@ TEST_F(ModelFileTest, SavesCallbackModelsOverGivenSteps) {
 
 TEST_F(ModelFileTest, SaveRejectsMixedNoiseInputs) {
   TestRng rng(7);
-  std::vector<ModelStep> steps = {RandomStep(rng, 2, 1, 1), RandomStep(rng, 2, 1, 0)};
+  std::vector<ModelStep> steps;  // (braces evaluated in order)
+  steps.push_back(RandomStep(rng, 2, 1, 1));
+  steps.push_back(RandomStep(rng, 2, 1, 0));
   const Model model(steps, Eigen::VectorXd::Zero(2), Eigen::MatrixXd::Identity(2, 2));
   EXPECT_THROW(SaveModel(Path("mixed.json"), model), Error);
   EXPECT_THROW(SaveModel(Path("no/such/dir/m.json"),

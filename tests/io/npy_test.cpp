@@ -358,7 +358,9 @@ TEST_F(NpyTest, CorruptedFilesReadOrThrowKfxError) {
     const int edits = 1 + static_cast<int>(gen() % 4);
     for (int e = 0; e < edits && !bytes.empty(); ++e) {
       // Mostly in the header (the first 128 bytes), where the structure is.
-      const std::size_t at = gen() % std::min<std::size_t>(bytes.size(), gen() % 4 == 0 ? bytes.size() : 128);
+      const auto raw = gen();  // one draw per statement, in GCC's former order
+      const bool anywhere = gen() % 4 == 0;
+      const std::size_t at = raw % std::min<std::size_t>(bytes.size(), anywhere ? bytes.size() : 128);
       switch (gen() % 4) {
         case 0:
           bytes[at] = static_cast<char>(gen() & 0xff);

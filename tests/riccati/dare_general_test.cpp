@@ -207,7 +207,8 @@ TEST(GeneralDare, EmptyState) {
 TEST(GeneralizedLyapunov, MatchesKroneckerSolve) {
   for (int n = 1; n <= 6; ++n) {
     TestRng rng(300 + n);
-    const MatrixXd A = rng.Gaussian(n, n), E = rng.Gaussian(n, n) + 3.0 * MatrixXd::Identity(n, n);
+    const MatrixXd A = rng.Gaussian(n, n);
+    const MatrixXd E = rng.Gaussian(n, n) + 3.0 * MatrixXd::Identity(n, n);
     const MatrixXd Q = rng.Spd(n);
     MatrixXd K(n * n, n * n);
     for (int i = 0; i < n; ++i)
@@ -224,7 +225,8 @@ TEST(GeneralizedLyapunov, MatchesKroneckerSolve) {
 
 TEST(GeneralizedLyapunov, IdentityDescriptorIsTheStandardEquationAndResidualAtN100) {
   TestRng rng(41);
-  const MatrixXd A = rng.WithSpectralRadius(100, 0.9), Q = rng.Spd(100);
+  const MatrixXd A = rng.WithSpectralRadius(100, 0.9);
+  const MatrixXd Q = rng.Spd(100);
   const LyapunovSolution g = SolveGeneralizedDiscreteLyapunov(A, MatrixXd::Identity(100, 100), Q);
   const LyapunovSolution s = SolveDiscreteLyapunov(A, Q);
   ASSERT_TRUE(g.summary.ok()) << g.summary.FullReport();
@@ -249,7 +251,9 @@ TEST(DiscreteSylvester, MatchesKroneckerSolve) {
   for (int n = 1; n <= 5; ++n) {
     const int m = n % 3 + 1;
     TestRng rng(500 + n);
-    const MatrixXd A = rng.Gaussian(n, n), B = rng.Gaussian(m, m), C = rng.Gaussian(n, m);
+    const MatrixXd A = rng.Gaussian(n, n);
+    const MatrixXd B = rng.Gaussian(m, m);
+    const MatrixXd C = rng.Gaussian(n, m);
     MatrixXd K(n * m, n * m);
     for (int i = 0; i < m; ++i)
       for (int j = 0; j < m; ++j) K.block(i * n, j * n, n, n) = B(j, i) * A;
@@ -264,7 +268,9 @@ TEST(DiscreteSylvester, MatchesKroneckerSolve) {
 
 TEST(DiscreteSylvester, ResidualAtModerateSizeSingularAndInvalid) {
   TestRng rng(61);
-  const MatrixXd A = rng.WithSpectralRadius(80, 0.95), B = rng.WithSpectralRadius(50, 0.9), C = rng.Gaussian(80, 50);
+  const MatrixXd A = rng.WithSpectralRadius(80, 0.95);
+  const MatrixXd B = rng.WithSpectralRadius(50, 0.9);
+  const MatrixXd C = rng.Gaussian(80, 50);
   const SteinSolution s = SolveDiscreteSylvester(A, B, C);
   ASSERT_TRUE(s.summary.ok()) << s.summary.FullReport();
   EXPECT_LE(s.summary.relative_residual, 1e-13);

@@ -270,7 +270,8 @@ TEST(DareRefinement, RemovesTheRoundingAccumulatedByDoubling) {
   const int n = 200, m = 100;
   const MatrixXd A = rng.WithSpectralRadius(n, 1.3);
   const MatrixXd C = rng.Gaussian(m, n);
-  const MatrixXd Q = rng.Spd(n), R = rng.Spd(m);
+  const MatrixXd Q = rng.Spd(n);
+  const MatrixXd R = rng.Spd(m);
   DareOptions raw_options = WithMethod(DareMethod::kDoubling);
   raw_options.refine = false;
   const DareSolution raw = SolveFilterDare(A, C, Q, R, raw_options);
@@ -293,7 +294,8 @@ TEST(DareRiccatiRecursion, ConvergesToTheDareSolution) {
   const int n = 6, m = 2;
   const MatrixXd A = rng.WithSpectralRadius(n, 1.1);
   const MatrixXd C = rng.Gaussian(m, n);
-  const MatrixXd Q = rng.Spd(n), R = rng.Spd(m);
+  const MatrixXd Q = rng.Spd(n);
+  const MatrixXd R = rng.Spd(m);
   MatrixXd P = Q;
   for (int k = 0; k < 3000; ++k) {
     const MatrixXd S = C * P * C.transpose() + R;
@@ -316,7 +318,8 @@ TEST(DareShapes, MoreMeasurementsThanStates) {
   for (const auto& [n, m] : {std::pair{1, 3}, std::pair{3, 5}, std::pair{4, 12}}) {
     const MatrixXd A = rng.WithSpectralRadius(n, 1.2);
     const MatrixXd C = rng.Gaussian(m, n);
-    const MatrixXd Q = rng.Spd(n), R = rng.Spd(m);
+    const MatrixXd Q = rng.Spd(n);
+    const MatrixXd R = rng.Spd(m);
     const DareSolution d = SolveFilterDare(A, C, Q, R, WithMethod(DareMethod::kDoubling));
     const DareSolution s = SolveFilterDare(A, C, Q, R, WithMethod(DareMethod::kSchur));
     ExpectValidSolution(A, C, Q, R, d);
@@ -479,7 +482,9 @@ TEST(DareIterationLimit, ReportsNotConverged) {
   const MatrixXd C = rng.Gaussian(2, 8);
   DareOptions options = WithMethod(DareMethod::kDoubling);
   options.max_iterations = 1;
-  const DareSolution s = SolveFilterDare(A, C, rng.Spd(8), rng.Spd(2), options);
+  const MatrixXd R = rng.Spd(2);  // one draw per statement, in GCC's former order of the arguments (TestRng)
+  const MatrixXd Q = rng.Spd(8);
+  const DareSolution s = SolveFilterDare(A, C, Q, R, options);
   EXPECT_EQ(s.summary.termination, Termination::kNotConverged) << s.summary.FullReport();
   EXPECT_EQ(s.summary.iterations, 1);
   EXPECT_EQ(s.P_pred.rows(), 8);  // the last iterate

@@ -51,7 +51,8 @@ TEST(SchurStein, SylvesterAgreesWithKroneckerForSmallSizes) {
   TestRng rng(12);
   for (int n : {1, 2, 3, 6, 9})
     for (int m : {1, 2, 4, 7}) {
-      const MatrixXd A = rng.WithSpectralRadius(n, 0.9), B = rng.WithSpectralRadius(m, 0.97);
+      const MatrixXd A = rng.WithSpectralRadius(n, 0.9);
+      const MatrixXd B = rng.WithSpectralRadius(m, 0.97);
       const MatrixXd F = rng.Gaussian(n, m);
       MatrixXd Y;
       ASSERT_TRUE(detail::SolveSteinBySchur(detail::ComputeRealSchur(A), detail::ComputeRealSchur(B), F, &Y));
@@ -62,7 +63,8 @@ TEST(SchurStein, SylvesterAgreesWithKroneckerForSmallSizes) {
 TEST(SchurStein, LyapunovAgreesWithKroneckerForSmallSizes) {
   TestRng rng(13);
   for (int n : {1, 2, 3, 5, 8, 13}) {
-    const MatrixXd A = rng.WithSpectralRadius(n, 0.95), Q = rng.Spd(n);
+    const MatrixXd A = rng.WithSpectralRadius(n, 0.95);
+    const MatrixXd Q = rng.Spd(n);
     MatrixXd X;
     ASSERT_TRUE(detail::SolveLyapunovBySchur(detail::ComputeRealSchur(A), Q, &X));
     EXPECT_LE(RelativeDifference(X, KroneckerStein(A, A, Q)), 1e-12) << n;
@@ -77,9 +79,11 @@ TEST(SchurStein, RandomSizesAgreeWithSb04qdAndSmith) {
   std::uniform_int_distribution<int> size(20, 140);
   TestRng rng(14);
   for (int trial = 0; trial < 8; ++trial) {
-    const int n = size(sizes), m = size(sizes);
+    const int n = size(sizes);
+    const int m = size(sizes);
     const double rho_a = trial % 2 == 0 ? 0.99 : 0.6, rho_b = trial % 4 == 1 ? 1.4 : 0.95;
-    const MatrixXd A = rng.WithSpectralRadius(n, rho_a), B = rng.WithSpectralRadius(m, rho_b);
+    const MatrixXd A = rng.WithSpectralRadius(n, rho_a);
+    const MatrixXd B = rng.WithSpectralRadius(m, rho_b);
     const MatrixXd F = rng.Gaussian(n, m);
     MatrixXd Y;
     ASSERT_TRUE(detail::SolveSteinBySchur(detail::ComputeRealSchur(A), detail::ComputeRealSchur(B), F, &Y));
@@ -124,7 +128,8 @@ TEST(SymmetricProducts, LowerTriangleAgreesWithTheFullProduct) {
   std::mt19937 pick(25);
   for (int trial = 0; trial < 6; ++trial) {
     const int n = trial == 0 ? 1 : std::uniform_int_distribution<int>(2, 300)(pick);
-    const MatrixXd A = rng.Gaussian(n, n), S = rng.Spd(n);
+    const MatrixXd A = rng.Gaussian(n, n);
+    const MatrixXd S = rng.Spd(n);
     const MatrixXd T = S * A;  // A^T T = A^T S A is symmetric
     const MatrixXd full = A.transpose() * T;
     MatrixXd lower = MatrixXd::Constant(n, n, 7.0);

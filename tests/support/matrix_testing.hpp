@@ -8,7 +8,9 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <utility>
 
+#include "kfx/model.hpp"
 #include "kfx/riccati.hpp"
 
 namespace kfx::testing {
@@ -74,5 +76,18 @@ class TestRng {
   std::mt19937_64 gen_;
   std::normal_distribution<double> dist_;
 };
+
+/// MakeStep(A, C, Q, R) with A n x n of spectral radius rho, C m x n Gaussian, Q = Spd(n, q_shift) and
+/// R = Spd(m, r_shift), drawn in the order R, Q, C, A: the order in which GCC evaluated the former
+/// one-statement `MakeStep(rng.WithSpectralRadius(n, rho), rng.Gaussian(m, n), rng.Spd(n), rng.Spd(m))`,
+/// so the seeded tests keep the systems their tolerances were set on.
+inline ModelStep RandomModelStep(TestRng& rng, Eigen::Index n, Eigen::Index m, double rho, double q_shift = 0.1,
+                                 double r_shift = 0.1) {
+  Eigen::MatrixXd R = rng.Spd(m, r_shift);
+  Eigen::MatrixXd Q = rng.Spd(n, q_shift);
+  Eigen::MatrixXd C = rng.Gaussian(m, n);
+  Eigen::MatrixXd A = rng.WithSpectralRadius(n, rho);
+  return MakeStep(std::move(A), std::move(C), std::move(Q), std::move(R));
+}
 
 }  // namespace kfx::testing

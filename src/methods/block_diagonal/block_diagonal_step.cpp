@@ -30,7 +30,6 @@ VectorXd BlockDiagonalGain::Apply(const VectorXd& innovation) const {
 
 VectorXd BlockDiagonalGain::CouplingMean(const VectorXd& innovation) const {
   RequireVector("innovation", innovation, Yt.cols());
-  if (C1.rows() == 0) return VectorXd();  // r = 0: no product of empty matrices (DGEMV with LDA = 0)
   return C1 * (Yt * innovation);
 }
 
@@ -74,12 +73,7 @@ void BlockDiagonalUpdate(const CoupledStep& s, const MatrixXd& Pp, BlockDiagonal
     out.gain.C1.resize(0, 0);
   VectorXd v;
   if (est) {
-    // mu_u = C_1 Y^T nu (after eq. (17), -C_3 = C_1); r = 0: empty (no DGEMV with LDA = 0)
-    if (r > 0) {
-      v.noalias() = out.gain.C1 * ytnu;
-    } else {
-      v.resize(0);
-    }
+    v.noalias() = out.gain.C1 * ytnu;  // mu_u = C_1 Y^T nu (after eq. (17), -C_3 = C_1); empty when r = 0
     *est->mu_u = v;
   }
   detail::BlockDiagonalPass2(s, factor, 0, n, est ? est->nu : nullptr, est ? &v : nullptr, est ? est->x : nullptr, &ws,

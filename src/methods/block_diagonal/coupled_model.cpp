@@ -175,8 +175,7 @@ CoupledTrajectory SimulateCoupled(const CoupledSystem& system, const SimulationO
   tr.x.row(0) = x.transpose();
   for (int k = 1; k <= T; ++k) {
     const auto s = system.step(k);
-    // r = 0: no product of empty matrices (Eigen sends it to DGEMV with LDA = 0, an illegal value).
-    const VectorXd u = r > 0 ? VectorXd(PsdFactor(s->U) * rng.Normal(r)) : VectorXd();
+    const VectorXd u = PsdFactor(s->U) * rng.Normal(r);  // empty when r = 0
     VectorXd xn = CoupledPropagate(*s, x);
     if (r > 0) xn.noalias() += s->G * u;
     VectorXd yk(n * d);

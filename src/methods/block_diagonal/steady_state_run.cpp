@@ -176,11 +176,11 @@ void FrozenBlockDiagonal::Run(const TimeSeries& y, int k0, int L, TimeSeries* x_
                                                          gain_.J.data() + i0 * c * d, x0, xj.data(), yj.data(),
                                                          NU.data());
     });
-    if (r == 0) continue;
     const Eigen::Map<const MatrixXd, 0, Eigen::OuterStride<>> nu(NU.data(), nb * d, L, Eigen::OuterStride<>(nb * d));
     S.noalias() += gain_.Yt.middleCols(i0 * d, nb * d) * nu;
   }
-  if (r == 0) return;  // no coupling: nothing below (and no products of empty matrices)
+  // No coupling: the r-dimensional recursion is empty and sweep 2 would add zeros to every subsystem.
+  if (r == 0) return;
   // The r-dimensional recursion: w_j = C_1 (s_j + sum_{l<j} M_{j-1-l} w_l) = mu_u of step k0 + j.
   MatrixXd Wm(r, L);
   for (int j = 1; j <= L; ++j) {

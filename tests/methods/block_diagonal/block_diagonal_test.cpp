@@ -174,7 +174,9 @@ TEST(CoupledFilter, FastAndNaiveKindsAgreeOverARun) {
   const Index n = 6, c = 2, d = 1, r = 2;
   std::vector<CoupledStep> steps;
   for (int k = 0; k < 8; ++k) steps.push_back(RandomStep(rng, n, c, d, r));
-  const CoupledSystem sys(steps, rng.Gaussian(n * c, 1), PackedSpd(rng, c, n, 0.2));
+  const MatrixXd P0 = PackedSpd(rng, c, n, 0.2);  // one draw per statement, in GCC's former order (TestRng)
+  const VectorXd x0 = rng.Gaussian(n * c, 1);
+  const CoupledSystem sys(steps, x0, P0);
   const CoupledTrajectory tr = SimulateCoupled(sys, {-1, 3});
   const CoupledRun fast = RunCoupledFilter(sys, CoupledFilterKind::kBlockDiagonal, tr.y);
   const CoupledRun naive = RunCoupledFilter(sys, CoupledFilterKind::kBlockDiagonalNaive, tr.y);
@@ -321,7 +323,8 @@ TEST(CoupledFilter, CouplingPosteriorIsGaussianConditioning) {
   const Index n = 5, c = 2, d = 2, r = 3;
   const CoupledStep s = RandomStep(rng, n, c, d, r);
   const MatrixXd P = PackedSpd(rng, c, n, 0.2);
-  const VectorXd x = rng.Gaussian(n * c, 1), y = rng.Gaussian(n * d, 1);
+  const VectorXd x = rng.Gaussian(n * c, 1);
+  const VectorXd y = rng.Gaussian(n * d, 1);
   const ModelStep dense = ToDenseStep(s);
   const MatrixXd Pp = dense.A * BlockDiagonalToDense(P, c) * dense.A.transpose() + dense.Q;
   const MatrixXd S = dense.C * Pp * dense.C.transpose() + dense.R;

@@ -45,7 +45,7 @@ Case MakeCase(Index n, Index c, Index d, Index T, bool shared, double missing, s
     m.R.middleCols(i * d, d) = rng.Spd(d, 0.2);
     m.P0.middleCols(i * c, c) = rng.Spd(c, 0.5);
   }
-  m.x0 = shared ? MatrixXd(rng.Gaussian(c, 1)) : MatrixXd(rng.Gaussian(c, n));
+  m.x0 = rng.Gaussian(c, shared ? 1 : n);
   k.y = rng.Gaussian(T, n * d);
   std::mt19937_64 gen(seed + 1);
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -85,8 +85,9 @@ void ExpectMatchesReference(const Case& k, double tol) {
 TEST(FilterMany, MatchesTheKalmanFilterOfEachFilterOnSeededSizes) {
   std::mt19937_64 gen(24);
   for (int trial = 0; trial < 12; ++trial) {
-    const Index c = 1 + static_cast<Index>(gen() % 5), d = 1 + static_cast<Index>(gen() % 3);  // c <= 5, d <= 3
-    const Index n = 1 + static_cast<Index>(gen() % 150);                                       // crosses chunks of 64
+    const Index c = 1 + static_cast<Index>(gen() % 5);    // c <= 5
+    const Index d = 1 + static_cast<Index>(gen() % 3);    // d <= 3
+    const Index n = 1 + static_cast<Index>(gen() % 150);  // crosses chunks of 64
     const bool shared = trial % 2 == 0;
     SCOPED_TRACE("c = " + std::to_string(c) + ", d = " + std::to_string(d) + ", n = " + std::to_string(n) +
                  (shared ? ", shared" : ", per filter"));

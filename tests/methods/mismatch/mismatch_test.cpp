@@ -28,8 +28,15 @@ double Spectral(const MatrixXd& m) { return Eigen::JacobiSVD<MatrixXd>(m).singul
 ModelStep RandomStep(TestRng& rng, Eigen::Index n, Eigen::Index m, Eigen::Index p, double rho) {
   const MatrixXd A = rng.WithSpectralRadius(n, rho);
   const MatrixXd C = rng.Gaussian(m, n);
-  if (p > 0) return MakeStepWithNoiseInput(A, rng.Gaussian(n, p), rng.Spd(p, 0.2), C, rng.Spd(m, 0.3));
-  return MakeStep(A, C, rng.Spd(n, 0.2), rng.Spd(m, 0.3));
+  // One draw per statement, in GCC's former order of the arguments (TestRng).
+  const MatrixXd R = rng.Spd(m, 0.3);
+  if (p > 0) {
+    const MatrixXd U = rng.Spd(p, 0.2);
+    const MatrixXd B = rng.Gaussian(n, p);
+    return MakeStepWithNoiseInput(A, B, U, C, R);
+  }
+  const MatrixXd Q = rng.Spd(n, 0.2);
+  return MakeStep(A, C, Q, R);
 }
 
 // A design near `truth` with errors in A, C, the noise covariance and R together.
@@ -121,8 +128,12 @@ TEST(MismatchSequence, EqualsExactPerformanceAtEveryStep) {
       ts.push_back(RandomStep(rng, n, m, seed % 2, 0.9));
       ds.push_back(PerturbedDesign(rng, ts.back(), 0.2));
     }
-    const Model truth(ts, rng.Gaussian(n, 1), rng.Spd(n, 0.5));
-    const Model design(ds, rng.Gaussian(n, 1), rng.Spd(n, 0.5));
+    const MatrixXd P0_truth = rng.Spd(n, 0.5);  // one draw per statement, in GCC's former order (TestRng)
+    const VectorXd x0_truth = rng.Gaussian(n, 1);
+    const Model truth(ts, x0_truth, P0_truth);
+    const MatrixXd P0_design = rng.Spd(n, 0.5);
+    const VectorXd x0_design = rng.Gaussian(n, 1);
+    const Model design(ds, x0_design, P0_design);
     const MismatchSequence seq = MismatchedCovarianceSequence(design, truth, MismatchSequenceOptions{3});
     const PerformanceResult exact =
         ExactPerformance(truth, KalmanAsLinearFilter(design, ComputeKalmanSchedule(design, KalmanScheduleOptions{3})));

@@ -30,7 +30,9 @@ using testing::TestRng;
 Model RandomTimeVaryingModel(TestRng& rng, int n, int m, int T, const VectorXd& m0) {
   std::vector<ModelStep> steps;
   for (int k = 1; k <= T; ++k) {
-    const MatrixXd R = rng.Spd(m, 0.3), Q = rng.Spd(n, 0.2), C = rng.Gaussian(m, n);
+    const MatrixXd R = rng.Spd(m, 0.3);
+    const MatrixXd Q = rng.Spd(n, 0.2);
+    const MatrixXd C = rng.Gaussian(m, n);
     steps.push_back(MakeStep(rng.WithSpectralRadius(n, 0.8 + 0.05 * (k % 5)), C, Q, R));
   }
   return Model(steps, m0, rng.Spd(n, 0.5));
@@ -254,7 +256,8 @@ TEST(ReducedOrderTwoStep, PropagatedCovariancesEqualEngineAndGainsEqualLeastSqua
 TEST(ReducedOrderTwoStep, FullOrderWithIdentityWeightIsTheKalmanFilterAndPredictor) {
   TestRng rng(61);
   const int n = 4, m = 2, T = 12;
-  const Model model = RandomTimeVaryingModel(rng, n, m, T, rng.Gaussian(n, 1));
+  const VectorXd m0 = rng.Gaussian(n, 1);  // before the model, as GCC evaluated the former single statement
+  const Model model = RandomTimeVaryingModel(rng, n, m, T, m0);
   const WeightSchedule L(MatrixXd::Identity(n, n));
   const ReducedOrderTwoStep s = ComputeReducedOrderTwoStep(model, L);
   const LinearFilter fda = ReducedOrderTwoStepAsLinearFilter(s, L, TwoStepOutput::kDataAssimilation);
@@ -395,7 +398,9 @@ Model TriangularPlant(TestRng& rng, const MatrixXd& U, int nr, int m, int T, boo
   for (int k = 1; k <= T; ++k) {
     MatrixXd Ap = rng.WithSpectralRadius(n, 0.9);
     if (triangular) Ap.bottomLeftCorner(n - nr, nr).setZero();
-    const MatrixXd R = rng.Spd(m, 0.3), Q = rng.Spd(n, 0.2), C = rng.Gaussian(m, n);
+    const MatrixXd R = rng.Spd(m, 0.3);
+    const MatrixXd Q = rng.Spd(n, 0.2);
+    const MatrixXd C = rng.Gaussian(m, n);
     steps.push_back(MakeStep(U * Ap * U.transpose(), C, Q, R));
   }
   // A callback model (its steps are made anew on every call), as the reproduction uses.
@@ -481,7 +486,8 @@ TEST(SubspaceOneStep, GainMinimizesTheCostAmongStructuredEstimators) {
 TEST(SubspaceEstimators, FullDimensionWithIdentityWeightIsTheKalmanFilterAndPredictor) {
   TestRng rng(101);
   const int n = 4, m = 2, T = 10;
-  const Model model = RandomTimeVaryingModel(rng, n, m, T, rng.Gaussian(n, 1));
+  const VectorXd m0 = rng.Gaussian(n, 1);  // before the model, as GCC evaluated the former single statement
+  const Model model = RandomTimeVaryingModel(rng, n, m, T, m0);
   const WeightSchedule L(MatrixXd::Identity(n, n));
   const MatrixXd I = MatrixXd::Identity(n, n);
   const KalmanWeightedCosts kf = KalmanCosts(model, L, ReducedOrderOptions{T});

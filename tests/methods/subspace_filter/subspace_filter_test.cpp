@@ -40,7 +40,10 @@ RandomSystem MakeRandomSystem(std::uint64_t seed, Eigen::Index N, Eigen::Index n
   TestRng rng(seed);
   RandomSystem r;
   // One draw per statement, last argument first (matrix_testing.hpp, TestRng).
-  const MatrixXd R = rng.Spd(m, 0.3), C = rng.Gaussian(m, N), U = rng.Spd(3, 0.2), B = rng.Gaussian(N, 3);
+  const MatrixXd R = rng.Spd(m, 0.3);
+  const MatrixXd C = rng.Gaussian(m, N);
+  const MatrixXd U = rng.Spd(3, 0.2);
+  const MatrixXd B = rng.Gaussian(N, 3);
   r.step = MakeStepWithNoiseInput(rng.WithSpectralRadius(N, rho), B, U, C, R);
   const MatrixXd W = rng.Spd(N, 0.5);
   r.subspace = SubspaceFromBasis(rng.Gaussian(N, n), W);
@@ -50,7 +53,8 @@ RandomSystem MakeRandomSystem(std::uint64_t seed, Eigen::Index N, Eigen::Index n
 
 TEST(SubspaceTest, FromBasisIsOrthonormalInTheGramMatrix) {
   TestRng rng(1);
-  const MatrixXd W = rng.Spd(7, 0.5), E = rng.Gaussian(7, 3);
+  const MatrixXd W = rng.Spd(7, 0.5);
+  const MatrixXd E = rng.Gaussian(7, 3);
   const Subspace s = SubspaceFromBasis(E, W);
   const MatrixXd adj = ProjectionAdjoint(s);
   EXPECT_MATRICES_NEAR(s.projection * adj, MatrixXd::Identity(3, 3), 1e-12);
@@ -69,7 +73,10 @@ TEST(SubspaceFilterTest, FullSpaceEqualsKalmanFilter) {
   for (std::uint64_t seed : {11u, 12u}) {
     TestRng rng(seed);
     const Eigen::Index N = 6, m = 2;
-    const MatrixXd R = rng.Spd(m, 0.3), C = rng.Gaussian(m, N), U = rng.Spd(2), B = rng.Gaussian(N, 2);
+    const MatrixXd R = rng.Spd(m, 0.3);
+    const MatrixXd C = rng.Gaussian(m, N);
+    const MatrixXd U = rng.Spd(2);
+    const MatrixXd B = rng.Gaussian(N, 2);
     const ModelStep st = MakeStepWithNoiseInput(rng.WithSpectralRadius(N, 0.95), B, U, C, R);
     const MatrixXd P0 = rng.Spd(N);
     const Model model(st, VectorXd::Zero(N), P0);
@@ -216,7 +223,10 @@ TEST(SubspaceFilterTest, ScheduleMayCycleInsteadOfConverging) {
 TEST(SubspaceFilterTest, ToleranceBelowTheRoundingFloorStopsAtTheFloor) {
   TestRng rng(12);
   const Eigen::Index N = 6, m = 2;
-  const MatrixXd R = rng.Spd(m, 0.3), C = rng.Gaussian(m, N), U = rng.Spd(2), B = rng.Gaussian(N, 2);
+  const MatrixXd R = rng.Spd(m, 0.3);
+  const MatrixXd C = rng.Gaussian(m, N);
+  const MatrixXd U = rng.Spd(2);
+  const MatrixXd B = rng.Gaussian(N, 2);
   const ModelStep st = MakeStepWithNoiseInput(rng.WithSpectralRadius(N, 0.95), B, U, C, R);
   Subspace identity;
   identity.projection = MatrixXd::Identity(N, N);
