@@ -150,8 +150,9 @@ TEST(LyapunovRandom, SinglePrecisionTailKeepsDoublePrecisionResidual) {
   TestRng rng(2425);
   std::mt19937 pick(2425);
   for (int trial = 0; trial < 3; ++trial) {
-    const int n = trial == 0 ? std::uniform_int_distribution<int>(40, 48)(pick)
-                             : std::uniform_int_distribution<int>(100, 220)(pick);
+    std::uniform_int_distribution<int> size =
+        trial == 0 ? std::uniform_int_distribution<int>(40, 48) : std::uniform_int_distribution<int>(100, 220);
+    const int n = size(pick);
     for (double rho : {0.9, 0.95, 0.99}) {
       const MatrixXd A = rng.WithSpectralRadius(n, rho);
       const MatrixXd Q = rng.Spd(n);
