@@ -41,7 +41,7 @@ int RunAnalyze(const AnalyzeArgs& a) {
     const StepPtr s = design.step(1);
     DareOptions dare_options;
     dare_options.exact_eigenvalues = true;  // the report prints rho(A - K_p C) itself, not a bound
-    const DareSolution dare = SolveFilterDare(s->A, s->C, s->Q, s->R, dare_options);
+    const DareSolution dare = SteadyStateDare(*s, dare_options);
     std::cout << "steady state (filter DARE" << (a.design.empty() ? "" : " of the design model")
               << "): " << dare.summary.BriefReport() << "\n";
     j["dare"] = {{"status", ToString(dare.summary.termination)},

@@ -21,6 +21,7 @@
 #include "kfx/linear_filter.hpp"
 #include "kfx/model.hpp"
 #include "kfx/progress.hpp"
+#include "kfx/riccati.hpp"
 
 namespace kfx {
 
@@ -217,6 +218,17 @@ struct KalmanScheduleOptions {
 /// @throws kfx::Error on invalid options or steps beyond the horizon; kfx::NumericalError (a recursion)
 ///         when a step's covariance cannot be computed.
 KalmanSchedule ComputeKalmanSchedule(const Model& model, const KalmanScheduleOptions& options = {});
+
+/// The steady-state Kalman filter of a time-invariant step, its cross-covariance S (kfx's pairing:
+/// cov(w_k, v_k) = S with w_k producing x_k) included. Without S: SolveFilterDare(A, C, Q, R, options).
+/// With S: the filter DARE of the equivalent pairing of the riccati layer, y_k = (C A) x_{k-1} + v~_k with
+/// v~_k = C w_k + v_k, i.e. SolveFilterDare(A, C A, Q, C Q C^T + C S + S^T C^T + R, Q C^T + S): its P_pred is
+/// the model's P_{k|k} and its predictor gain the model's filter gain K_f = (P C^T + S) W^{-1}, W = C P C^T +
+/// C S + S^T C^T + R (RunFilter's correlated update); the result holds the model's P_pred = A P_{k|k} A^T + Q,
+/// P_filt, K_f, K_p = A K_f and W. The certificate fields (closed_loop_spectral_radius, min_eigenvalue) are
+/// those of the equivalent DARE: rho((I - K_f C) A), which equals rho(A (I - K_f C)), and lambda_min(P_{k|k}).
+/// @throws kfx::Error as SolveFilterDare, naming S when C Q C^T + C S + S^T C^T + R is not positive definite.
+DareSolution SteadyStateDare(const ModelStep& step, const DareOptions& options = {});
 
 /// The Kalman filter as a linear recursion z_k = Phi_k z_{k-1} + K_k y_k + Gamma_k g_k with z = x_{k|k}:
 /// Phi_k = (I - K_k C_k) A_k, K_k the filter gain, O = I, z_0 = m0, and for a model with a known input

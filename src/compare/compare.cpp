@@ -147,7 +147,7 @@ Comparison Compare(const ComparisonModel& truth, const std::vector<MethodSpec>& 
   if (model.time_invariant()) {
     const StepPtr step_ptr = model.step(1);
     const ModelStep& s = *step_ptr;
-    const DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
+    const DareSolution dare = SteadyStateDare(s);
     if (dare.summary.ok()) c.kalman_stationary = WeightedTrace(options.weight, dare.P_filt);
   }
   if (truth.continuous) KalmanBucyReference(*truth.continuous, options.weight, options.steps, &c);

@@ -16,7 +16,7 @@ namespace {
 using Eigen::MatrixXd;
 
 DareSolution SteadyState(const MethodSpec& spec, const ModelStep& s, const std::string& what) {
-  DareSolution dare = SolveFilterDare(s.A, s.C, s.Q, s.R);
+  DareSolution dare = SteadyStateDare(s);
   if (!dare.summary.ok()) throw NumericalError(Where(spec) + what + " DARE: " + dare.summary.BriefReport());
   return dare;
 }

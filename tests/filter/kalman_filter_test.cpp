@@ -486,5 +486,50 @@ TEST(KalmanFilter, StepFunctionsValidateTheEstimateAndTheStep) {
   }
 }
 
+// SteadyStateDare: without S the plain filter DARE; with S (kfx's pairing) the limit of the Kalman
+// schedule (the correlated update, an independent recursion) and the fixed point of its Riccati map.
+TEST(SteadyStateDare, WithoutSIsTheFilterDareAndWithSIsTheLimitOfTheCorrelatedSchedule) {
+  testing::TestRng rng(2212);
+  const Eigen::Index n = 4, m = 2;
+  const MatrixXd L = rng.Gaussian(n + m, n + m);
+  MatrixXd J = L * L.transpose();
+  J.diagonal().array() += 0.1;
+  const MatrixXd C = rng.Gaussian(m, n);
+  const MatrixXd A = rng.WithSpectralRadius(n, 0.9);
+  ModelStep plain = MakeStep(A, C, J.topLeftCorner(n, n), J.bottomRightCorner(m, m));
+  const DareSolution d0 = SteadyStateDare(plain);
+  const DareSolution ref = SolveFilterDare(plain.A, plain.C, plain.Q, plain.R);
+  ASSERT_TRUE(d0.summary.ok());
+  EXPECT_EQ(testing::RelativeDifference(d0.P_pred, ref.P_pred), 0.0);
+  EXPECT_EQ(testing::RelativeDifference(d0.filter_gain, ref.filter_gain), 0.0);
+
+  ModelStep s = plain;
+  s.S = J.topRightCorner(n, m);
+  const DareSolution d = SteadyStateDare(s);
+  ASSERT_TRUE(d.summary.ok()) << d.summary.BriefReport();
+  const Model model(s, VectorXd::Zero(n), MatrixXd::Identity(n, n));
+  const KalmanSchedule sch = ComputeKalmanSchedule(model, KalmanScheduleOptions{600});
+  EXPECT_LE(testing::RelativeDifference(d.P_pred, sch.P_pred.back()), 1e-10);
+  EXPECT_LE(testing::RelativeDifference(d.P_filt, sch.P_filt.back()), 1e-10);
+  EXPECT_LE(testing::RelativeDifference(d.filter_gain, sch.filter_gain.back()), 1e-10);
+  EXPECT_LE(testing::RelativeDifference(d.predictor_gain, MatrixXd(A * sch.filter_gain.back())), 1e-10);
+  // The fixed point: P = A (P - K W K^T) A^T + Q, K = (P C^T + S) W^{-1}, W = C P C^T + C S + S^T C^T + R.
+  const MatrixXd& P = d.P_pred;
+  const MatrixXd W = C * P * C.transpose() + C * s.S + s.S.transpose() * C.transpose() + s.R;
+  const MatrixXd K = (P * C.transpose() + s.S) * W.inverse();
+  const MatrixXd next = A * (P - K * W * K.transpose()) * A.transpose() + s.Q;
+  EXPECT_LE(testing::RelativeDifference(next, P), 1e-12);
+  EXPECT_LE(testing::RelativeDifference(d.innovation_cov, W), 1e-12);
+  // S changes the answer: the DARE without it is another filter.
+  EXPECT_GT(testing::RelativeDifference(d.P_pred, ref.P_pred), 1e-3);
+}
+
+TEST(SteadyStateDare, NoiseThatCancelsInTheMeasurementIsNamedS) {
+  // [[1, -1], [-1, 1]] is PSD and R = 1 is PD, but C w + v = 0: C Q C^T + C S + S^T C^T + R = 0.
+  ModelStep s = MakeStep(Scalar(0.5), Scalar(1), Scalar(1), Scalar(1));
+  s.S = Scalar(-1);
+  EXPECT_TRUE(ThrowsErrorStartingWith([&] { SteadyStateDare(s); }, "S:"));
+}
+
 }  // namespace
 }  // namespace kfx
