@@ -528,7 +528,7 @@ TEST(SteadyStateDare, NoiseThatCancelsInTheMeasurementIsNamedS) {
   // [[1, -1], [-1, 1]] is PSD and R = 1 is PD, but C w + v = 0: C Q C^T + C S + S^T C^T + R = 0.
   ModelStep s = MakeStep(Scalar(0.5), Scalar(1), Scalar(1), Scalar(1));
   s.S = Scalar(-1);
-  EXPECT_TRUE(ThrowsErrorStartingWith([&] { SteadyStateDare(s); }, "S:"));
+  EXPECT_TRUE(testing::ThrowsErrorStartingWith([&] { SteadyStateDare(s); }, "S:"));
 }
 
 }  // namespace
