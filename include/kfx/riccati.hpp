@@ -43,10 +43,12 @@ struct DareOptions {
   /// of the certificate's bounds. About 10 n^3 flops of mostly non-BLAS-3 work: a third of the solve
   /// time at n = 200.
   bool exact_eigenvalues = false;
-  /// Refine a successful result (either method): up to 4 fixed-point steps P <- A P_filt A^T + Q
-  /// (each kept only if it at least halves the residual; error contracts like rho(A - K_p C)^2;
-  /// stopping once the relative residual is <= 32 eps = 7.1e-15),
-  /// then one Newton (Hewer) step via a Stein equation if the residual is still > 1e-13.
+  /// Refine a successful result (either method): for n >= 32 first four terms of the Newton correction
+  /// in single precision (error contracts like rho(A - K_p C)^8), then up to 4 fixed-point steps
+  /// P <- A P_filt A^T + Q (error contracts like rho(A - K_p C)^2); each step is kept only if it at
+  /// least halves the residual, stopping once the relative residual is <= 32 eps = 7.1e-15; then one
+  /// Newton (Hewer) step via a Stein equation if the residual is still > 1e-13. The Summary's message
+  /// says how many steps of each kind were kept.
   bool refine = true;
   /// Doubling: (k, max_iterations) after doubling step k (the Schur method is one LAPACK call).
   ProgressCallback progress{};

@@ -121,6 +121,21 @@ constexpr double kNewtonThreshold = 1e-13;
 /// the solve). SB02OD's residuals on the same systems are 1e-14..2e-14 at n = 200..400.
 constexpr double kRefinementTarget = 32 * std::numeric_limits<double>::epsilon();
 
+/// What Refine did, by kind of step (the Summary's message names them: the four-term step can be rejected when
+/// rho(A_cl)^8 does not halve the residual, and the Stein step runs only when the others leave it above 1e-13).
+struct RefinementSteps {
+  int four_term = 0;    ///< NewtonApproximantStep, kept
+  int fixed_point = 0;  ///< P <- F(P), kept
+  int newton = 0;       ///< the Hewer step through a Stein equation (SB03MD), kept
+  bool four_term_rejected = false;
+  int Accepted() const { return four_term + fixed_point + newton; }
+  std::string Describe() const {
+    std::string s = std::to_string(four_term) + " four-term Newton";
+    if (four_term_rejected) s += " (one not kept)";
+    return s + ", " + std::to_string(fixed_point) + " fixed-point, " + std::to_string(newton) + " Stein-Newton";
+  }
+};
+
 /// next->P = d->P + E with E = sum_{k < 4} A_cl^k (-Res) A_cl^kT, A_cl = A - A K_f C: the Newton correction of
 /// the refinement truncated to four terms (two Smith steps), in single precision. The fixed-point step is its
 /// first term and contracts the error by about rho(A_cl)^2; four terms contract it by rho(A_cl)^8 (0.27 and
@@ -166,9 +181,9 @@ void NewtonApproximantStep(const ConstRef& A, const ConstRef& C, const Derived& 
 ///   E = A_cl E A_cl^T + (F(P) - P),   P <- P + E
 /// (the Newton step for F(P) - P = 0, since F'(P)[E] = A_cl E A_cl^T; G.A. Hewer, IEEE TAC 16
 /// (1971) 382-384), about 25 n^3 flops with SB03MD, kept only if it lowers the residual.
-int Refine(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, Derived* d, Derived* next,
-           MatrixPool* pool) {
-  int accepted = 0;
+RefinementSteps Refine(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, Derived* d,
+                       Derived* next, MatrixPool* pool) {
+  RefinementSteps done;
   for (int step = 0; step < kMaxFixedPointSteps && d->residual > kRefinementTarget; ++step) {
     const bool four_terms = step == 0 && A.rows() >= 32 && C.rows() <= A.rows();  // (m <= n: K_f fits)
     if (four_terms) {
@@ -178,11 +193,14 @@ int Refine(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstR
     }
     Derive(A, C, Q, R, next);
     if (!next->s_ok || !(next->residual <= 0.5 * d->residual)) {
-      if (four_terms) continue;  // not kept: the fixed-point steps from the same P
+      if (four_terms) {  // not kept: the fixed-point steps from the same P
+        done.four_term_rejected = true;
+        continue;
+      }
       break;
     }
     std::swap(*d, *next);
-    ++accepted;
+    ++(four_terms ? done.four_term : done.fixed_point);
   }
   if (d->residual > kNewtonThreshold) {
     AddPredictorGain(A, d);
@@ -196,11 +214,11 @@ int Refine(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstR
       Derive(A, C, Q, R, next);
       if (next->s_ok && next->residual < d->residual) {
         std::swap(*d, *next);
-        ++accepted;
+        ++done.newton;
       }
     }
   }
-  return accepted;
+  return done;
 }
 
 DareSolution Finalize(const ConstRef& A, const ConstRef& C, const ConstRef& Q, const ConstRef& R, DareCandidate cand,
@@ -239,10 +257,11 @@ DareSolution Finalize(const ConstRef& A, const ConstRef& C, const ConstRef& Q, c
     const double before = d.residual;
     seat(&spare);
     spare.P = pool->Take(n, n);
-    sol.refinement_steps = Refine(A, C, Q, R, &d, &spare, pool);
-    if (sol.refinement_steps > 0) {
-      sum.message += "; refined in " + std::to_string(sol.refinement_steps) + " steps (relative residual " +
-                     FormatNumber(before) + " -> " + FormatNumber(d.residual) + ")";
+    const RefinementSteps done = Refine(A, C, Q, R, &d, &spare, pool);
+    sol.refinement_steps = done.Accepted();
+    if (sol.refinement_steps > 0 || done.four_term_rejected) {
+      sum.message += "; refined in " + std::to_string(sol.refinement_steps) + " steps (" + done.Describe() +
+                     "; relative residual " + FormatNumber(before) + " -> " + FormatNumber(d.residual) + ")";
     }
   }
   for (MatrixXd* m : {&spare.P, &spare.P_filt, &spare.res, &spare.work.L, &spare.work.B, &d.work.L, &d.work.B}) {

@@ -219,7 +219,49 @@ TEST(DareDoubling, PredictedConvergenceSkipsTheConfirmingStep) {
     // The refinement's first step is four terms of the Newton correction (rho(A_cl)^8 per step instead of
     // the fixed point's rho(A_cl)^2): one step from the doubling's ~1e-13 to the target.
     EXPECT_EQ(d.refinement_steps, 1) << d.summary.message;
+    EXPECT_NE(d.summary.message.find("1 four-term Newton, 0 fixed-point, 0 Stein-Newton"), std::string::npos)
+        << d.summary.message;
   }
+}
+
+// The refinement's fallbacks. A closed loop with a mode at 0.999 (a slow mode that C does not see, hidden by a
+// similarity): the four-term step contracts its error by only 0.999^8 and the fixed point by 0.999^2, so neither
+// halves the residual and neither is kept; the doubling's residual (~2e-13, measured) is above 1e-13, so the
+// Newton step through the Stein equation runs and is kept. Checked against SB02OD and against the unrefined
+// doubling: the refined solution must have the smaller residual and stay as close to SB02OD's as the
+// conditioning allows (a closed-loop mode at 0.999 amplifies residuals by about 1 / (1 - 0.999^2) = 500).
+TEST(DareRefinement, SlowClosedLoopFallsBackToTheSteinNewtonStep) {
+  const int n = 40, m = 20;
+  TestRng rng(2417);
+  MatrixXd A = MatrixXd::Zero(n, n);
+  A.topLeftCorner(n - 1, n - 1) = rng.WithSpectralRadius(n - 1, 0.9);
+  A(n - 1, n - 1) = 0.999;
+  MatrixXd C = MatrixXd::Zero(m, n);
+  C.leftCols(n - 1) = rng.Gaussian(m, n - 1);
+  const MatrixXd Q0 = rng.Spd(n);
+  const MatrixXd R = rng.Spd(m);
+  const MatrixXd mix = rng.Gaussian(n, n);
+  const MatrixXd T = MatrixXd::Identity(n, n) + (0.3 / std::sqrt(static_cast<double>(n))) * mix;
+  const MatrixXd T_inv = T.inverse();
+  const MatrixXd At = T * A * T_inv;
+  const MatrixXd Ct = C * T_inv;
+  const MatrixXd Qt = T * Q0 * T.transpose();
+  DareOptions raw_options = WithMethod(DareMethod::kDoubling);
+  raw_options.refine = false;
+  const DareSolution raw = SolveFilterDare(At, Ct, Qt, R, raw_options);
+  const DareSolution d = SolveFilterDare(At, Ct, Qt, R, WithMethod(DareMethod::kDoubling));
+  const DareSolution s = SolveFilterDare(At, Ct, Qt, R, WithMethod(DareMethod::kSchur, /*exact_eigenvalues=*/true));
+  ExpectValidSolution(At, Ct, Qt, R, d);
+  ASSERT_TRUE(s.summary.ok()) << s.summary.message;
+  EXPECT_NEAR(s.closed_loop_spectral_radius, 0.999, 1e-10);  // the unobservable mode stays in A - K_p C
+  ASSERT_GT(raw.summary.relative_residual, 1e-13) << "the system no longer reaches the Stein step";
+  EXPECT_NE(d.summary.message.find("0 four-term Newton (one not kept), 0 fixed-point, 1 Stein-Newton"),
+            std::string::npos)
+      << d.summary.message;
+  EXPECT_EQ(d.refinement_steps, 1);
+  EXPECT_LE(d.summary.relative_residual, 32 * std::numeric_limits<double>::epsilon()) << d.summary.message;
+  EXPECT_LT(d.summary.relative_residual, 0.01 * raw.summary.relative_residual);
+  EXPECT_LE(RelativeDifference(d.P_pred, s.P_pred), 500 * 1e-13);
 }
 
 // ------------------------------------------------------------------------------------------------
