@@ -566,7 +566,7 @@ def simulate_coupled(system: CoupledSystem, steps: int, seed: int = 1) -> tuple:
 
 def solve_block_diagonal_steady_state(step: CoupledStep, max_iterations: int = 100000, tolerance: float = 1e-13) -> BlockDiagonalSteadyState: """Raises kfx.Error on an invalid step or options. Numerical outcomes are in summary."""
 
-def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray, method: str = 'auto') -> LyapunovSolution: """X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared Smith iteration when it converges, else 'schur'), 'schur' (SLICOT SB03MD) or 'smith'. Returns a LyapunovSolution; a singular equation is .summary.termination 'singular', never raised."""
+def solve_discrete_lyapunov(A: numpy.ndarray, Q: numpy.ndarray, method: str = 'auto') -> LyapunovSolution: """X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared Smith iteration when it converges, else 'schur'), 'schur' (Bartels-Stewart on LAPACK DGEES's real Schur form) or 'smith'. Returns a LyapunovSolution; a singular equation is .summary.termination 'singular', never raised."""
 
 def solve_discrete_sylvester(A: numpy.ndarray, B: numpy.ndarray, C: numpy.ndarray) -> SteinSolution: """Stein / discrete Sylvester equation A X B - X + C = 0 (python-control dlyap(A, Q, C) is B = Q.T) by SLICOT SB04QD. Returns a SteinSolution; a singular equation is .summary.termination 'singular'."""
 

@@ -91,7 +91,8 @@ void BindRiccati(py::module_& m) {
       },
       py::arg("A"), py::arg("Q"), py::arg("method") = "auto",
       "X = A X A^T + Q (the convention of scipy.linalg.solve_discrete_lyapunov): method 'auto' (the squared "
-      "Smith iteration when it converges, else 'schur'), 'schur' (SLICOT SB03MD) or 'smith'. Returns a "
+      "Smith iteration when it converges, else 'schur'), 'schur' (Bartels-Stewart on LAPACK DGEES's real Schur form) "
+      "or 'smith'. Returns a "
       "LyapunovSolution; a singular equation is .summary.termination 'singular', never raised.");
   m.def(
       "solve_generalized_discrete_lyapunov",
