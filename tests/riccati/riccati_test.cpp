@@ -226,7 +226,7 @@ TEST(DareDoubling, PredictedConvergenceSkipsTheConfirmingStep) {
 
 // The refinement's fallbacks. A closed loop with a mode at 0.999 (a slow mode that C does not see, hidden by a
 // similarity): the four-term step contracts its error by only 0.999^8 and the fixed point by 0.999^2, so neither
-// halves the residual and neither is kept; the doubling's residual (~2e-13, measured) is above 1e-13, so the
+// halves the residual and neither is kept; the doubling's residual (7.1e-13, measured) is above 1e-13, so the
 // Newton step through the Stein equation runs and is kept. Checked against SB02OD and against the unrefined
 // doubling: the refined solution must have the smaller residual and stay as close to SB02OD's as the
 // conditioning allows (a closed-loop mode at 0.999 amplifies residuals by about 1 / (1 - 0.999^2) = 500).
