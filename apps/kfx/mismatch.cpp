@@ -82,9 +82,12 @@ int RunMismatch(const MismatchArgs& a) {
   j["ranges"] = a.ranges;
   std::cout << std::setprecision(6) << "filter designed on " << a.model
             << " (steady-state Kalman gain), n = " << model.state_dim() << ", m = " << model.meas_dim()
-            << "\nerror ranges " << a.ranges << ": "
-            << "free entries " << box.free_entries << "; |dA| <= " << b.norms.A << ", |dC| <= " << b.norms.C
-            << ", |dQ| <= " << b.norms.Q << ", |dR| <= " << b.norms.R << " (Frobenius; Delta = model - true)\n"
+            << "\nerror ranges " << a.ranges << ": ";
+  if (searchable) std::cout << "free entries " << box.free_entries << "; ";  // counted by the box search
+  std::cout << "|dA| <= " << b.norms.A << ", |dC| <= " << b.norms.C << ", |dQ| <= " << b.norms.Q
+            << ", |dR| <= " << b.norms.R;
+  if (b.norms.S != 0.0) std::cout << ", |dS| <= " << b.norms.S;
+  std::cout << " (Frobenius; Delta = model - true)\n"
             << "nominal (true system = model): true error tr P = " << b.terms.nominal_trace
             << " (the filter's own tr P_filt = " << dare.P_filt.trace() << ", engine " << engine.mse << ")\n";
   j["nominal_trace"] = b.terms.nominal_trace;
@@ -111,14 +114,16 @@ int RunMismatch(const MismatchArgs& a) {
   nlohmann::ordered_json bounds;
   auto upper = [&](const char* name, const std::optional<double>& v, const char* what) {
     if (!v) return;
-    std::cout << "  " << name << ": tr P   <= " << std::setw(10) << *v << "   ratio to max tr P  " << *v / worst
-              << "   " << what << "\n";
+    std::cout << "  " << name << ": tr P   <= " << std::setw(10) << *v;
+    if (std::isfinite(worst)) std::cout << "   ratio to max tr P  " << *v / worst;  // no box search: no ratio
+    std::cout << "   " << what << "\n";
     bounds[name] = *v;
   };
   auto lower = [&](const char* name, const std::optional<double>& v, const char* what) {
     if (!v) return;
-    std::cout << "  " << name << ": tr P_F >= " << std::setw(10) << *v << "   ratio min tr P_F to it " << best / *v
-              << "   " << what << "\n";
+    std::cout << "  " << name << ": tr P_F >= " << std::setw(10) << *v;
+    if (std::isfinite(best)) std::cout << "   ratio min tr P_F to it " << best / *v;
+    std::cout << "   " << what << "\n";
     bounds[name] = *v;
   };
   upper("pi3", b.pi3, "(Theorem 3, noise covariance errors)");

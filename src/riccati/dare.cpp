@@ -129,10 +129,16 @@ struct RefinementSteps {
   int newton = 0;       ///< the Hewer step through a Stein equation (SB03MD), kept
   bool four_term_rejected = false;
   int Accepted() const { return four_term + fixed_point + newton; }
+  /// The kinds that ran, e.g. "1 four-term Newton" or "a four-term Newton step not kept, 1 Stein-Newton" (for
+  /// n < 32 the four-term step is never tried, so it is not named).
   std::string Describe() const {
-    std::string s = std::to_string(four_term) + " four-term Newton";
-    if (four_term_rejected) s += " (one not kept)";
-    return s + ", " + std::to_string(fixed_point) + " fixed-point, " + std::to_string(newton) + " Stein-Newton";
+    std::string s;
+    auto add = [&s](const std::string& part) { s += (s.empty() ? "" : ", ") + part; };
+    if (four_term > 0) add(std::to_string(four_term) + " four-term Newton");
+    if (four_term_rejected) add("a four-term Newton step not kept");
+    if (fixed_point > 0) add(std::to_string(fixed_point) + " fixed-point");
+    if (newton > 0) add(std::to_string(newton) + " Stein-Newton");
+    return s;
   }
 };
 

@@ -36,6 +36,10 @@ check "S range: Theorem 3 with its S term" grep -q "pi3: tr P" "$tmp/s.txt"
 check "S range: pi4, pi5, pi6 refused" test "$(grep -c '^  refused pi[456]: the truth has a cross-covariance S' "$tmp/s.txt")" -eq 3
 check "S range: no box search" grep -q "not searched" "$tmp/s.txt"
 check "S range: JSON refused" grep -q '"refused"' "$tmp/s_out.json"
+check "S range: its size in the header" grep -q '|dS| <= 0.5 ' "$tmp/s.txt"
+check "S range: no ratio to an unsearched box (no nan)" bash -c "! grep -qi 'nan' '$tmp/s.txt'"
+check "S range: no free-entry count of an unsearched box" bash -c "! grep -q 'free entries' '$tmp/s.txt'"
+check "plant ranges: free entries and ratios printed" bash -c "grep -q 'free entries' '$tmp/plant.txt' && grep -q 'ratio min tr P_F to it' '$tmp/plant.txt'"
 printf '{"Q": 1.0, "unmodelled_input": true}\n' > "$tmp/input.json"
 "$kfx" mismatch "$model" --ranges "$tmp/input.json" > "$tmp/input.txt"
 check "unmodelled input: exit 0" test $? -eq 0
