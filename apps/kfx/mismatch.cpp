@@ -61,6 +61,11 @@ nlohmann::ordered_json ExtremeJson(const ErrorBoxExtreme& e) {
 int RunMismatch(const MismatchArgs& a) {
   const Model model = LoadModel(a.model);
   if (!model.time_invariant()) throw Error(a.model + ": expected a time-invariant model (002 is stationary)");
+  if (model.input_dim() > 0) {
+    throw Error(a.model +
+                ": expected a model without a known input (G, D): kfx mismatch's stationary analysis has "
+                "none (the library's StationaryMismatchedCovariance takes a constant one)");
+  }
   const ModelStep design = *model.step(1);
   const ErrorRanges ranges = LoadErrorRanges(a.ranges, design);
   const PatelTodaBounds b = ComputePatelTodaBounds(design, ranges);
@@ -76,7 +81,7 @@ int RunMismatch(const MismatchArgs& a) {
   }
   const LinearFilter f = ConstantGainAsLinearFilter(design, b.terms.filter_gain, model.m0());
   const StationaryPerformance engine = ExactStationaryPerformance(model, f);
-  const DareSolution dare = SolveFilterDare(design.A, design.C, design.Q, design.R);
+  const DareSolution dare = SteadyStateDare(design);  // the design's S included
   nlohmann::ordered_json j;
   j["model"] = a.model;
   j["ranges"] = a.ranges;
@@ -91,21 +96,23 @@ int RunMismatch(const MismatchArgs& a) {
             << "nominal (true system = model): true error tr P = " << b.terms.nominal_trace
             << " (the filter's own tr P_filt = " << dare.P_filt.trace() << ", engine " << engine.mse << ")\n";
   j["nominal_trace"] = b.terms.nominal_trace;
-  auto extreme = [&](const char* what, const ErrorBoxExtreme& e) {
-    std::cout << what;
+  auto extreme = [&](const char* what, const char* quantity, const ErrorBoxExtreme& e) {
+    std::cout << what << ": " << quantity;
     if (!searchable) {
-      std::cout << "not searched (the box search varies A, C, Q, R only; the ranges have S or an unmodelled input)\n";
+      std::cout << " not searched (the box search varies A, C, Q, R only; the ranges have S or an unmodelled input)\n";
       return;
     }
     if (!e.found) {
-      std::cout << ": no valid true system found in the box\n";
+      std::cout << ": no valid true system in the box (" << e.evaluations
+                << " evaluations, all skipped: Q or R not valid, the truth unstable (no stationary error) or a failed "
+                   "solve)\n";
       return;
     }
-    std::cout << e.value << " at " << ErrorsString(e.errors) << (e.at_corner ? " (corner)" : " (inside)") << "; "
-              << e.evaluations << " evaluations, " << e.skipped << " skipped\n";
+    std::cout << " = " << e.value << " at " << ErrorsString(e.errors) << (e.at_corner ? " (corner)" : " (inside)")
+              << "; " << e.evaluations << " evaluations, " << e.skipped << " skipped\n";
   };
-  extreme("worst case over the box (corners, then refinement): max tr P = ", box.least_upper);
-  extreme("best optimal filter over the box: min tr P_F = ", box.greatest_lower);
+  extreme("worst case over the box (corners, then refinement)", "max tr P", box.least_upper);
+  extreme("best optimal filter over the box", "min tr P_F", box.greatest_lower);
   j["least_upper"] = ExtremeJson(box.least_upper);
   j["greatest_lower"] = ExtremeJson(box.greatest_lower);
   const double worst = box.least_upper.found ? box.least_upper.value : NAN;

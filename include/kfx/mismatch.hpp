@@ -71,7 +71,8 @@ ModelingErrors ModelingErrorsBetween(const ModelStep& design, const ModelStep& t
 
 struct MismatchOptions {
   /// The filter gain K_M (n x m). Empty: the steady-state Kalman filter gain of the design step
-  /// (SolveFilterDare). 002's bounds hold for any gain (remark after Theorem 4).
+  /// (SteadyStateDare: SolveFilterDare, with the design's S when it has one). 002's bounds hold for any gain
+  /// (remark after Theorem 4).
   Eigen::MatrixXd filter_gain{};
   /// The constant known input g (length q) of the stationary analysis (issue 22): required when the design
   /// or the truth has G or D, none (empty) otherwise. Not for the bounds (Theorem 1 refuses it).
@@ -105,8 +106,8 @@ struct StationaryMismatch {
 /// The stationary true error of the filter (10) designed on `design` and run on `truth`.
 /// @param design, truth time-invariant steps of the same dimensions (n, m); the truth may have S, either may
 ///        have a known input (G, D; the same q).
-/// @throws kfx::Error on invalid steps/options (dimensions, a filter_gain that is not n x m, a design with S and
-///         no filter_gain: its steady-state gain is not computed here), naming options.input when it does not
+/// @throws kfx::Error on invalid steps/options (dimensions, a filter_gain that is not n x m, a design with S whose
+///         C Q C^T + C S + S^T C^T + R is not positive definite), naming options.input when it does not
 ///         fit the steps' G, D (required by a step with G or D, refused when neither has them).
 /// Numerical outcomes (unstable system or filter, failed solves) are in summary.
 StationaryMismatch StationaryMismatchedCovariance(const ModelStep& design, const ModelStep& truth,
@@ -329,7 +330,7 @@ struct ErrorBoxExtreme {
 struct ErrorBoxSearch {
   int free_entries = 0;
   ErrorBoxExtreme least_upper;     ///< max tr P of the filter designed on `design` (fixed gain)
-  ErrorBoxExtreme greatest_lower;  ///< min tr P_F of the optimal filter of the true system
+  ErrorBoxExtreme greatest_lower;  ///< min tr P_F of the optimal filter of the true system (SteadyStateDare)
   /// kConverged (the search ran; each extreme says whether it found a value), or the design DARE's
   /// termination when no gain was given and it failed (no search); iterations = evaluations.
   Summary summary;

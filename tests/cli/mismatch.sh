@@ -46,6 +46,21 @@ check "unmodelled input: exit 0" test $? -eq 0
 check "unmodelled input: pi3 refused" grep -q "^  refused pi3: the truth has a known input" "$tmp/input.txt"
 check "unmodelled input: pi4 holds" grep -q "pi4: tr P_F" "$tmp/input.txt"
 
+# A design with its own S (the 002 example with cov(w, v) = 3): its filter is the correlated steady-state filter,
+# whose true error on the design itself is its own tr P_filt; the engine agrees; both extremes are searched.
+printf '{"format": "kfx-model", "version": 1, "A": [[-0.3333333333333333, 0.0], [0.1, -0.25]], "B": [[1.0], [0.0]],
+ "U": [[10.0]], "C": [[1.0, 0.0]], "R": [[5.0]], "S": [[3.0], [0.0]], "m0": [0.0, 0.0], "P0": [[10.0, 0.0], [0.0, 10.0]]}\n' \
+  > "$tmp/design_s.json"
+"$kfx" mismatch "$tmp/design_s.json" --ranges "$src/examples/ranges/patel_toda_noise_ranges.json" > "$tmp/design_s.txt" 2>&1
+check "design with S: exit 0" test $? -eq 0
+check "design with S: nominal error = its own tr P_filt = the engine's (1e-9)" awk '
+  /^nominal/ { gsub(/[(),]/, " "); for (i = 1; i <= NF; ++i) { if ($i == "P" && $(i + 1) == "=") a = $(i + 2);
+    if ($i == "P_filt" && $(i + 1) == "=") b = $(i + 2); if ($i == "engine") c = $(i + 1) } }
+  END { d1 = a - b; d2 = a - c; if (d1 < 0) d1 = -d1; if (d2 < 0) d2 = -d2;
+    exit !(a > 0 && d1 <= 1e-9 * a && d2 <= 1e-9 * a) }' "$tmp/design_s.txt"
+check "design with S: both extremes found" test "$(grep -c 'tr P_\{0,1\}F\{0,1\} = .* evaluations' "$tmp/design_s.txt")" -eq 2
+check "design with S: Theorem 4 refused (its S)" grep -q "^  refused pi4" "$tmp/design_s.txt"
+
 expect_error() {  # expect_error PATTERN -- ARGS...
   local pattern=$1
   shift 2
@@ -60,6 +75,7 @@ expect_error() {  # expect_error PATTERN -- ARGS...
   fi
 }
 expect_error "ranges" -- mismatch "$model"
+expect_error "expected a model without a known input" -- mismatch "$src/examples/models/driven_cart.json" --ranges "$tmp/s.json"
 printf '{"A": [[-0.1, 0], [0, 0]]}\n' > "$tmp/negative.json"
 expect_error "ranges.A" -- mismatch "$model" --ranges "$tmp/negative.json"
 printf '{"R": [[0.5, 0]]}\n' > "$tmp/shape.json"

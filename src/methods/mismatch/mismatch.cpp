@@ -61,12 +61,9 @@ bool ResolveFilterGain(const ModelStep& design, const MismatchOptions& options, 
     *gain = options.filter_gain;
     return true;
   }
-  if (design.has_cross_covariance()) {
-    throw Error(
-        "design: has a cross-covariance S: expected options.filter_gain (the steady-state gain of a "
-        "design with S is not computed here; 002's filter is designed without S)");
-  }
-  const DareSolution dare = SolveFilterDare(design.A, design.C, design.Q, design.R);
+  // With the design's S, the steady-state gain of its correlated filter (SteadyStateDare); without S that is
+  // SolveFilterDare(A, C, Q, R), 002's filter.
+  const DareSolution dare = SteadyStateDare(design);
   if (!dare.summary.ok()) {
     AdoptOutcome(dare.summary, summary);
     summary->message = "design " + summary->message;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "kfx/error.hpp"
+#include "kfx/kalman_filter.hpp"
 #include "kfx/mismatch.hpp"
 #include "kfx/riccati.hpp"
 #include "methods/mismatch/mismatch_internal.hpp"
@@ -208,7 +209,12 @@ ErrorBoxSearch SearchErrorBox(const ModelStep& design, const ErrorRanges& ranges
     } catch (const Error&) {
       return false;
     }
-    const DareSolution dare = SolveFilterDare(truth->A, truth->C, truth->Q, truth->R);
+    DareSolution dare;
+    try {
+      dare = SteadyStateDare(*truth);  // the truth's optimal filter, its S (the design's) included
+    } catch (const Error&) {           // C Q C^T + C S + S^T C^T + R not positive definite: not a valid truth
+      return false;
+    }
     if (!dare.summary.ok()) return false;
     *value = dare.P_filt.trace();
     return std::isfinite(*value);
