@@ -107,13 +107,18 @@ bench:
 	bash bench/run.sh $(BENCH_BUILD)
 
 # kfx vs SLICOT / SciPy / Octave / numpy (bench/peers/peers.py): one run, one BLAS thread, process
-# CPU time; writes $(BENCH_BUILD)/peers/peers.{json,md}. QUICK=1: small sizes only. Not part of make test.
+# CPU time; writes $(BENCH_BUILD)/peers/peers.{json,md}, then many small filters from Python against a vectorised
+# numpy filter and the traffic bound (bench/many_filters.py -> $(BENCH_BUILD)/peers/many_filters.md, written whole
+# once the run has finished). QUICK=1: small sizes only. Not part of make test.
 .PHONY: bench-peers
 bench-peers:
-	@bash tools/install-deps.sh build bench peers
+	@bash tools/install-deps.sh build bench peers python
 	@cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DKFX_BUILD_BENCHMARKS=ON -DKFX_BUILD_TESTS=OFF > $(BENCH_BUILD).configure.log 2>&1 || (cat $(BENCH_BUILD).configure.log; exit 1)
-	cmake --build $(BENCH_BUILD) -j$(JOBS) --target kfx_peers
+	cmake --build $(BENCH_BUILD) -j$(JOBS) --target kfx_peers kfx_python
 	/usr/bin/python3 bench/peers/peers.py --driver $(BENCH_BUILD)/bench/kfx_peers --out $(BENCH_BUILD)/peers $(if $(QUICK),--quick,)
+	PYTHONPATH=$(BENCH_BUILD)/python /usr/bin/python3 bench/many_filters.py $(if $(QUICK),--n 10000 --steps 100,) > $(BENCH_BUILD)/peers/many_filters.md.part
+	mv $(BENCH_BUILD)/peers/many_filters.md.part $(BENCH_BUILD)/peers/many_filters.md
+	cat $(BENCH_BUILD)/peers/many_filters.md
 # libFuzzer targets (readers of .npy, CSV, model, coupled-model and error-range files; CLI arguments)
 # under ASan + UBSan, in the sanitizer build above. fuzz: FUZZ_RUNS executions each; fuzz-smoke:
 # FUZZ_SECONDS each.

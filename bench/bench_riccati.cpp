@@ -1,14 +1,17 @@
 // Filter DARE: kfx structure-preserving doubling vs the generalized Schur method (kfx kSchur,
 // which is SLICOT SB02OD), for n = 50, 100, 200, 400, m = n / 2, a seeded random A with spectral
 // radius 0.95 and SPD Q, R. Counters: relative residual of the result, doubling steps, refinement
-// steps (DareOptions::refine, on by default for both methods).
+// steps (DareOptions::refine, on by default for both methods). BM_DareDoublingIteration times the
+// doubling iteration alone (no refinement, gains or certificate) with its flop count as a rate.
 // Run with OPENBLAS_NUM_THREADS=1.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Dense>
+#include <cmath>
 #include <random>
 
 #include "kfx/riccati.hpp"
+#include "riccati/dare_internal.hpp"
 
 namespace {
 
@@ -58,9 +61,37 @@ void RunDare(benchmark::State& state, kfx::DareMethod method) {
 }
 
 void BM_DareDoubling(benchmark::State& state) { RunDare(state, kfx::DareMethod::kDoubling); }
+
+// The doubling iteration of SolveFilterDare alone (detail::SolveDareByDoubling, a fresh buffer pool per solve as
+// in SolveFilterDare). Counter GFLOP: its flop count over its time, (44/3 (k - 1) + 23/3) n^3 flops for k steps:
+// per step W = G H (2 n^3), DGETRF (2/3), W^{-1} A and W^{-1} G (DGETRS, 2 + 2), H Y1 (2), the lower triangle of
+// A^T (H Y1) (1), the congruence (DTRMM + DSYR2K, 3) and A_{k+1} (2); the last step stops after the increment
+// of H (dare_doubling.cpp). bench/run.sh prints it as a fraction of the DGEMM rate of the same run.
+void BM_DareDoublingIteration(benchmark::State& state) {
+  const Problem p = MakeProblem(state.range(0));
+  const kfx::DareOptions options;
+  kfx::detail::DareCandidate c;
+  for (auto _ : state) {
+    kfx::detail::MatrixPool pool;
+    c = kfx::detail::SolveDareByDoubling(p.A, p.C, p.Q, p.R, options, &pool);
+    benchmark::DoNotOptimize(c.P.data());
+  }
+  if (c.termination != kfx::Termination::kConverged) state.SkipWithError(c.message.c_str());
+  const double n3 = std::pow(static_cast<double>(state.range(0)), 3);
+  state.counters["steps"] = c.iterations;
+  state.counters["GFLOP"] = benchmark::Counter((44.0 / 3 * (c.iterations - 1) + 23.0 / 3) * n3 * 1e-9,
+                                               benchmark::Counter::kIsIterationInvariantRate);
+}
 void BM_DareSchurSb02od(benchmark::State& state) { RunDare(state, kfx::DareMethod::kSchur); }
 
 }  // namespace
 
 BENCHMARK(BM_DareDoubling)->Arg(50)->Arg(100)->Arg(200)->Arg(400)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DareDoublingIteration)
+    ->Arg(50)
+    ->Arg(100)
+    ->Arg(200)
+    ->Arg(400)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_DareSchurSb02od)->Arg(50)->Arg(100)->Arg(200)->Arg(400)->Unit(benchmark::kMillisecond)->UseRealTime();
