@@ -41,9 +41,38 @@ Eigen::MatrixXd PackBlocks(const char* name, const Array& a, Eigen::Index n) {
   return m;
 }
 
-// kfx.filter_many: numpy in, numpy out; the estimates are written straight into the returned array.
+// filter_many's out=: the caller's array itself (no copy), checked: float64, C-contiguous, writeable,
+// (T, n, c), apart from zs. None: a fresh array.
+py::array OutputArray(const py::object& out, Eigen::Index T, Eigen::Index n, Eigen::Index c, const Array& zs) {
+  if (out.is_none()) return py::array_t<double>({T, n, c});
+  const std::string want = "a writeable C-contiguous float64 array of shape (" + std::to_string(T) + ", " +
+                           std::to_string(n) + ", " + std::to_string(c) + ")";
+  if (!py::isinstance<py::array>(out)) {
+    throw Error("out: expected " + want + ", got " + py::str(py::type::of(out).attr("__name__")).cast<std::string>());
+  }
+  auto a = py::reinterpret_borrow<py::array>(out);
+  if (!a.dtype().is(py::dtype::of<double>())) {
+    throw Error("out: expected " + want + ", got dtype " + py::str(a.dtype()).cast<std::string>());
+  }
+  if (a.ndim() != 3 || a.shape(0) != T || a.shape(1) != n || a.shape(2) != c) {
+    std::string shape;
+    for (py::ssize_t k = 0; k < a.ndim(); ++k) shape += (k ? ", " : "") + std::to_string(a.shape(k));
+    throw Error("out: expected " + want + ", got shape (" + shape + ")");
+  }
+  if (!(a.flags() & py::array::c_style)) throw Error("out: expected " + want + ", got a non-contiguous array");
+  if (!a.writeable()) throw Error("out: expected " + want + ", got a read-only array");
+  const auto* lo = static_cast<const char*>(a.data());
+  const auto* zlo = reinterpret_cast<const char*>(zs.data());
+  if (lo < zlo + zs.nbytes() && zlo < lo + a.nbytes()) {
+    throw Error("out: expected memory apart from zs, got an array that overlaps it");
+  }
+  return a;
+}
+
+// kfx.filter_many: numpy in, numpy out; the estimates are written straight into the returned array (or
+// into out=).
 py::tuple FilterManyNumpy(const Array& F, const Array& H, const Array& Q, const Array& R, const Array& x0,
-                          const Array& P0, const Array& zs) {
+                          const Array& P0, const Array& zs, const py::object& out) {
   if (zs.ndim() != 2 && zs.ndim() != 3) {
     throw Error("zs: expected (T, n) or (T, n, d), got " + std::to_string(zs.ndim()) + " dimensions");
   }
@@ -66,10 +95,10 @@ py::tuple FilterManyNumpy(const Array& F, const Array& H, const Array& Q, const 
   } else {
     throw Error("x0: expected (c,) for all filters or (" + std::to_string(n) + ", c)");
   }
-  py::array_t<double> xs({T, n, c});
+  py::array xs = OutputArray(out, T, n, c, zs);
   py::array_t<double> P({n, c, c});
   const Eigen::Map<const TimeSeries> y(zs.data(), T, n * d);
-  Eigen::Map<TimeSeries> x(xs.mutable_data(), T, n * c);
+  Eigen::Map<TimeSeries> x(static_cast<double*>(xs.mutable_data()), T, n * c);
   Eigen::MatrixXd P_last;
   {
     py::gil_scoped_release release;
@@ -238,11 +267,13 @@ void BindBlockDiagonal(py::module_& m) {
       "004 Sec. 3.1 for n identical subsystems, exactly, in O(c^3) per iteration for any n.");
   m.def("unknown_input_spectral_radius", &UnknownInputSpectralRadius, py::arg("system"));
   m.def("filter_many", &FilterManyNumpy, py::arg("F"), py::arg("H"), py::arg("Q"), py::arg("R"), py::arg("x0"),
-        py::arg("P0"), py::arg("zs"),
+        py::arg("P0"), py::arg("zs"), py::kw_only(), py::arg("out") = py::none(),
         "n independent Kalman filters (004's subsystems with U = 0; docs/python.md). F (c, c) or (n, c, c), H (d, c) "
         "or (n, d, c), Q (c, c) or (n, c, c), R (d, d) or (n, d, d), x0 (c,) or (n, c), P0 (c, c) or (n, c, c): "
         "one for all filters or one per filter; zs (T, n) (d = 1) or (T, n, d), NaN = missing. Returns (xs, P): "
-        "xs (T, n, c) the filtered means x_k|k, P (n, c, c) the last P_T|T.");
+        "xs (T, n, c) the filtered means x_k|k, P (n, c, c) the last P_T|T. out: None (a new xs), or a writeable "
+        "C-contiguous float64 (T, n, c) array apart from zs that xs is written into and returned as (no new "
+        "allocation and its page faults when the filters run again).");
 }
 
 }  // namespace kfx::python

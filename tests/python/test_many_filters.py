@@ -74,3 +74,44 @@ def test_bad_input_names_the_argument():
     bad[0, 0] = np.inf
     with pytest.raises(kfx.Error, match="y"):
         kfx.filter_many(F, H, Q, R, x0, P0, bad)
+
+
+def test_out_is_written_in_place_and_equals_a_fresh_run():
+    rng = np.random.default_rng(5)
+    n, T = 130, 25  # two whole chunks of 64 and a partial one
+    F, H, Q, R, x0, P0 = random_model(rng, n, 2, 1, True)
+    zs = rng.standard_normal((T, n))
+    zs[rng.uniform(size=(T, n)) < 0.1] = np.nan
+    fresh, P_fresh = kfx.filter_many(F, H, Q, R, x0, P0, zs)
+    out = np.full((T, n, 2), np.nan)
+    xs, P = kfx.filter_many(F, H, Q, R, x0, P0, zs, out=out)
+    assert xs is out
+    assert np.array_equal(out, fresh) and np.array_equal(P, P_fresh)
+    # Again into the same array, on other data: every element rewritten.
+    zs2 = rng.standard_normal((T, n))
+    xs2, _ = kfx.filter_many(F, H, Q, R, x0, P0, zs2, out=out)
+    assert xs2 is out and np.array_equal(out, kfx.filter_many(F, H, Q, R, x0, P0, zs2)[0])
+
+
+def test_a_bad_out_is_refused_naming_out():
+    rng = np.random.default_rng(6)
+    F, H, Q, R, x0, P0 = random_model(rng, 4, 2, 1, False)
+    zs = rng.standard_normal((6, 4))
+    read_only = np.zeros((6, 4, 2))
+    read_only.flags.writeable = False
+    overlap = np.zeros((6, 4, 2))
+    bad = {
+        "shape (6, 4, 3)": np.zeros((6, 4, 3)),
+        "dtype float32": np.zeros((6, 4, 2), np.float32),
+        "non-contiguous": np.zeros((6, 4, 4))[:, :, ::2],
+        "read-only": read_only,
+        "list": [[[0.0] * 2] * 4] * 6,
+        "overlaps": overlap,
+    }
+    for what, out in bad.items():
+        z = overlap.reshape(-1)[:24].reshape(6, 4) if what == "overlaps" else zs  # zs a view of out's memory
+        with pytest.raises(kfx.Error, match="out") as e:
+            kfx.filter_many(F, H, Q, R, x0, P0, z, out=out)
+        assert what.split()[0] in str(e.value), (what, str(e.value))
+    with pytest.raises(TypeError):
+        kfx.filter_many(F, H, Q, R, x0, P0, zs, np.zeros((6, 4, 2)))  # out is keyword-only

@@ -2,7 +2,9 @@
 // pixels" case. The filters run in chunks of kLanes: a chunk's model blocks are copied once into
 // structure-of-arrays scratch, its states stay in L1 over all T steps, and each step runs V filters at
 // a time in vector registers, one filter per element (AVX-512, AVX2/FMA or SSE2, chosen at run time).
-// Per filter and step the memory traffic is the measurement read and the estimate written.
+// Per filter and step the memory traffic is the measurement read and the estimate written: a whole
+// chunk reads scalar measurements in place and writes estimates of c <= 2 in place (interleaved in
+// registers); other shapes and a last, partial chunk go through small lane buffers.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -18,6 +20,17 @@
 #define KFX_MANY_X86 1
 #else
 #define KFX_MANY_X86 0
+#endif
+
+// Full unrolling of the fixed-size loops of the kernels (GCC at -O2 keeps them as loops).
+#if defined(__clang__)
+#define KFX_PRAGMA(x) _Pragma(#x)
+#define KFX_UNROLL(n) KFX_PRAGMA(unroll n)
+#elif defined(__GNUC__)
+#define KFX_PRAGMA(x) _Pragma(#x)
+#define KFX_UNROLL(n) KFX_PRAGMA(GCC unroll n)
+#else
+#define KFX_UNROLL(n)
 #endif
 
 namespace kfx {
@@ -64,6 +77,25 @@ template <int V>
   std::memcpy(p, &v, sizeof v);
 }
 
+// Writes V filters' estimates x[0..C) (lane l of x[a]: filter l's component a) as out[l C + a]; C <= 2.
+template <int C, int V>
+[[gnu::always_inline]] inline void StoreInterleaved(double* out, const Vec<V>* x) {
+  static_assert(C <= 2, "interleaved store for C <= 2");
+  if constexpr (C == 1) {
+    Store<V>(out, x[0]);
+  } else if constexpr (V == 2) {
+    Store<V>(out, __builtin_shufflevector(x[0], x[1], 0, 2));
+    Store<V>(out + V, __builtin_shufflevector(x[0], x[1], 1, 3));
+  } else if constexpr (V == 4) {
+    Store<V>(out, __builtin_shufflevector(x[0], x[1], 0, 4, 1, 5));
+    Store<V>(out + V, __builtin_shufflevector(x[0], x[1], 2, 6, 3, 7));
+  } else {
+    static_assert(V == 8, "V = 2, 4 or 8");
+    Store<V>(out, __builtin_shufflevector(x[0], x[1], 0, 8, 1, 9, 2, 10, 3, 11));
+    Store<V>(out + V, __builtin_shufflevector(x[0], x[1], 4, 12, 5, 13, 6, 14, 7, 15));
+  }
+}
+
 // One step of the kLanes filters of a chunk, V at a time: predict, mask the missing components (as
 // MaskMissingMeasurements: H row and R's correlations dropped, y 0), the standard update
 // P = P_pred - U S^{-1} U^T with U = P_pred H^T (lower triangle, mirrored). y: the chunk's
@@ -85,59 +117,84 @@ template <int C, int D, int V>
   double* P = L.P.data();
   alignas(64) double yl[D][W];
   alignas(64) double xl[C][W];
-  for (int e = 0; e < D; ++e) {
-    for (Index j = 0; j < nb; ++j) yl[e][j] = y[j * D + e];
-    for (Index j = nb; j < W; ++j) yl[e][j] = std::numeric_limits<double>::quiet_NaN();
+  const bool direct = D == 1 && nb == W;  // a whole chunk of scalar measurements: read y in place
+  // A whole chunk of c <= 2 estimates: written in place (interleaved in registers).
+  const bool direct_out = C <= 2 && nb == W;
+  if (!direct) {
+    for (int e = 0; e < D; ++e) {
+      for (Index j = 0; j < nb; ++j) yl[e][j] = y[j * D + e];
+      for (Index j = nb; j < W; ++j) yl[e][j] = std::numeric_limits<double>::quiet_NaN();
+    }
   }
   const Vd zero = {}, one = zero + 1.0;
+  KFX_UNROLL(1)
   for (Index j = 0; j < W; j += V) {
-    Vd x[C], p[C][C], xp[C], fp[C][C], pp[C][C];
-    for (int a = 0; a < C; ++a) x[a] = Load<V>(X + a * W + j);
-    for (int a = 0; a < C; ++a)
-      for (int b = 0; b < C; ++b) p[a][b] = Load<V>(P + (a * C + b) * W + j);
-    Vd f[C][C];  // f[a][b] = F(a, b); F column-major
-    for (int a = 0; a < C; ++a)
-      for (int b = 0; b < C; ++b) f[a][b] = Load<V>(F + (b * C + a) * W + j);
+    Vd x[C], p[C][C], xp[C], fp[C][C], pp[C][C], f[C][C];  // f[a][b] = F(a, b); F column-major
+    KFX_UNROLL(4)
     for (int a = 0; a < C; ++a) {
-      Vd acc = zero;
-      for (int b = 0; b < C; ++b) acc += f[a][b] * x[b];
-      xp[a] = acc;
+      x[a] = Load<V>(X + a * W + j);
+      KFX_UNROLL(4)
+      for (int b = 0; b < C; ++b) f[a][b] = Load<V>(F + (b * C + a) * W + j);
+      KFX_UNROLL(4)
+      for (int b = 0; b <= a; ++b) p[a][b] = p[b][a] = Load<V>(P + (a * C + b) * W + j);  // lower triangle kept
     }
-    for (int a = 0; a < C; ++a)
+    KFX_UNROLL(4)
+    for (int a = 0; a < C; ++a) {
+      Vd acc = f[a][0] * x[0];
+      KFX_UNROLL(4)
+      for (int b = 1; b < C; ++b) acc += f[a][b] * x[b];
+      xp[a] = acc;
+      KFX_UNROLL(4)
       for (int b = 0; b < C; ++b) {
-        Vd acc = zero;
-        for (int q = 0; q < C; ++q) acc += f[a][q] * p[q][b];
-        fp[a][b] = acc;
+        Vd t = f[a][0] * p[0][b];
+        KFX_UNROLL(4)
+        for (int q = 1; q < C; ++q) t += f[a][q] * p[q][b];
+        fp[a][b] = t;
       }
-    for (int a = 0; a < C; ++a)
+    }
+    KFX_UNROLL(4)
+    for (int a = 0; a < C; ++a) {
+      KFX_UNROLL(4)
       for (int b = 0; b <= a; ++b) {
         Vd acc = Load<V>(Q + (b * C + a) * W + j);
+        KFX_UNROLL(4)
         for (int q = 0; q < C; ++q) acc += fp[a][q] * f[b][q];
         pp[a][b] = acc;
         pp[b][a] = acc;
       }
+    }
     Vd h[D][C], ye[D], m[D];
+    KFX_UNROLL(2)
     for (int e = 0; e < D; ++e) {
-      const Vd v = Load<V>(yl[e] + j);
+      const Vd v = Load<V>(direct ? y + j : yl[e] + j);
       const auto ok = v == v;  // NaN: missing
       m[e] = ok ? one : zero;
       ye[e] = ok ? v : zero;
+      KFX_UNROLL(4)
       for (int q = 0; q < C; ++q) h[e][q] = m[e] * Load<V>(H + (q * D + e) * W + j);
     }
     Vd u[C][D], s[D][D], nu[D];
-    for (int a = 0; a < C; ++a)
+    KFX_UNROLL(4)
+    for (int a = 0; a < C; ++a) {
+      KFX_UNROLL(2)
       for (int e = 0; e < D; ++e) {
-        Vd acc = zero;
-        for (int q = 0; q < C; ++q) acc += pp[a][q] * h[e][q];
+        Vd acc = pp[a][0] * h[e][0];
+        KFX_UNROLL(4)
+        for (int q = 1; q < C; ++q) acc += pp[a][q] * h[e][q];
         u[a][e] = acc;
       }
+    }
+    KFX_UNROLL(2)
     for (int e = 0; e < D; ++e) {
       Vd acc = ye[e];
+      KFX_UNROLL(4)
       for (int q = 0; q < C; ++q) acc -= h[e][q] * xp[q];
       nu[e] = acc;
+      KFX_UNROLL(2)
       for (int g = 0; g < D; ++g) {
         Vd sf = Load<V>(R + (g * D + e) * W + j);
         if (e != g) sf *= m[e] * m[g];
+        KFX_UNROLL(4)
         for (int q = 0; q < C; ++q) sf += h[e][q] * u[q][g];
         s[e][g] = sf;
       }
@@ -151,27 +208,42 @@ template <int C, int D, int V>
       si[1][1] = s[0][0] * inv_det;
       si[0][1] = si[1][0] = -0.5 * (s[0][1] + s[1][0]) * inv_det;
     }
+    Vd k[C][D], xe[C];
+    KFX_UNROLL(4)
     for (int a = 0; a < C; ++a) {
-      Vd k[D];
+      KFX_UNROLL(2)
       for (int e = 0; e < D; ++e) {
-        Vd acc = zero;
-        for (int g = 0; g < D; ++g) acc += u[a][g] * si[g][e];
-        k[e] = acc;
+        Vd acc = u[a][0] * si[0][e];
+        KFX_UNROLL(2)
+        for (int g = 1; g < D; ++g) acc += u[a][g] * si[g][e];
+        k[a][e] = acc;
       }
       Vd xa = xp[a];
-      for (int e = 0; e < D; ++e) xa += k[e] * nu[e];
+      KFX_UNROLL(2)
+      for (int e = 0; e < D; ++e) xa += k[a][e] * nu[e];
       Store<V>(X + a * W + j, xa);
-      Store<V>(xl[a] + j, xa);
+      if (direct_out) {
+        xe[a] = xa;
+      } else {
+        Store<V>(xl[a] + j, xa);
+      }
+      KFX_UNROLL(4)
       for (int b = 0; b <= a; ++b) {
         Vd acc = pp[a][b];
-        for (int e = 0; e < D; ++e) acc -= k[e] * u[b][e];
+        KFX_UNROLL(2)
+        for (int e = 0; e < D; ++e) acc -= k[a][e] * u[b][e];
         Store<V>(P + (a * C + b) * W + j, acc);
-        Store<V>(P + (b * C + a) * W + j, acc);
       }
     }
+    if constexpr (C <= 2) {
+      if (direct_out) StoreInterleaved<C, V>(xo + j * C, xe);
+    }
   }
-  for (Index j = 0; j < nb; ++j)
+  if (direct_out) return;
+  for (Index j = 0; j < nb; ++j) {
+    KFX_UNROLL(4)
     for (int a = 0; a < C; ++a) xo[j * C + a] = xl[a][j];
+  }
 }
 
 #pragma GCC diagnostic pop
@@ -349,7 +421,11 @@ void FilterMany(const ManyFilterModel& model, const Eigen::Ref<const TimeSeries>
     }
     kernel(L, i0, nb, y, x_filt);
     for (Index j = 0; j < nb; ++j)
-      for (Index e = 0; e < c * c; ++e) (*P_filt)(e % c, (i0 + j) * c + e / c) = L.P[e * kLanes + j];
+      for (Index a = 0; a < c; ++a)  // the kernels keep the lower triangle (element (a, b) at a c + b, a >= b)
+        for (Index b = 0; b <= a; ++b) {
+          const double v = L.P[(a * c + b) * kLanes + j];
+          (*P_filt)(a, (i0 + j) * c + b) = (*P_filt)(b, (i0 + j) * c + a) = v;
+        }
   }
 }
 
