@@ -57,10 +57,11 @@ void BindMismatch(py::module_& m) {
         return StationaryMismatchedCovariance(design, truth, o);
       },
       py::arg("design"), py::arg("truth"), py::arg("filter_gain") = py::none(), py::arg("input") = py::none(),
-      "002 (15)-(17): the stationary true error of the filter designed on `design`, run on `truth`; the truth "
-      "may have S (which the design ignores), and with a constant known input g (input=, length q, required "
-      "when design or truth has G or D) the error has a mean (error_mean; P and trace include it). Raises "
-      "kfx.Error naming the step, filter_gain or options.input at fault.");
+      "002 (15)-(17): the stationary true error of the filter designed on `design`, run on `truth`. Without "
+      "filter_gain the filter is the design's steady-state Kalman filter (with the design's S when it has "
+      "one: the correlated-noise filter); either step may have S. With a constant known input g (input=, "
+      "length q, required when design or truth has G or D) the error has a mean (error_mean; P and trace "
+      "include it). Raises kfx.Error naming the step, filter_gain or options.input at fault.");
   m.def(
       "mismatched_covariance_sequence",
       [](const Model& design, const Model& truth, int steps, std::optional<TimeSeries> input) {

@@ -482,7 +482,9 @@ TEST(KalmanFilter, StepFunctionsValidateTheEstimateAndTheStep) {
     // Within the tolerance (a rounding-level negative eigenvalue of -1e-14 on a unit scale) it is accepted.
     // (The information form needs P > 0 and says so itself.)
     const MatrixXd psd_rounded = (MatrixXd(2, 2) << 1, 1, 1, 1 - 1e-14).finished();
-    if (form != FilterForm::kInformation) EXPECT_NO_THROW(Predict({x, psd_rounded}, s, o));
+    if (form != FilterForm::kInformation) {
+      EXPECT_NO_THROW(Predict({x, psd_rounded}, s, o));
+    }
   }
 }
 
