@@ -19,10 +19,10 @@ namespace kfx {
 struct LinearFilterStep {  ///< One step of a linear filter: z_k = Phi z_{k-1} + K y_k + Gamma g_k, estimate O z_k.
   Eigen::MatrixXd Phi;     ///< n_z x n_z
   Eigen::MatrixXd K;       ///< n_z x m
-  Eigen::MatrixXd O;       ///< n_out x n_z output map; empty means identity (n_out = n_z)
+  Eigen::MatrixXd O{};     ///< n_out x n_z output map; empty means identity (n_out = n_z)
   /// n_z x q known-input map (issue 22); empty means none at this step (the filter ignores g_k). The Kalman
   /// filter's is (I - K C) G - K D (KalmanAsLinearFilter).
-  Eigen::MatrixXd Gamma;
+  Eigen::MatrixXd Gamma{};
 };
 
 using LinearFilterStepPtr = std::shared_ptr<const LinearFilterStep>;

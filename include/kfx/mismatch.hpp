@@ -48,12 +48,12 @@ namespace kfx {
 
 /// Modelling errors in 002's convention Delta = model - true. An empty matrix means "no error".
 struct ModelingErrors {
-  Eigen::MatrixXd A;  ///< n x n: dA = A_M - A
-  Eigen::MatrixXd C;  ///< m x n: 002's dH = C_M - C
-  Eigen::MatrixXd Q;  ///< p x p (noise input) or n x n: dQ = Q_M - Q (symmetric)
-  Eigen::MatrixXd R;  ///< m x m: dR = R_M - R (symmetric)
+  Eigen::MatrixXd A{};  ///< n x n: dA = A_M - A
+  Eigen::MatrixXd C{};  ///< m x n: 002's dH = C_M - C
+  Eigen::MatrixXd Q{};  ///< p x p (noise input) or n x n: dQ = Q_M - Q (symmetric)
+  Eigen::MatrixXd R{};  ///< m x m: dR = R_M - R (symmetric)
   /// n x m: dS = S_M - S_t, the cross-covariance's error (issue 22; a design without S: dS = -S_t).
-  Eigen::MatrixXd S;
+  Eigen::MatrixXd S{};
 };
 
 /// The true step of a design step with errors: A = A_M - dA, C = C_M - dC, the noise covariance
@@ -148,7 +148,7 @@ MismatchSequence MismatchedCovarianceSequence(const Model& design, const Model& 
 struct ErrorRanges {
   Eigen::MatrixXd A, C, Q, R;
   /// n x m range of dS = S_M - S_t (issue 22): the truth's cross-covariance, for a design without S.
-  Eigen::MatrixXd S;
+  Eigen::MatrixXd S{};
   /// The truth has a known input that the design's filter ignores or mis-models (G, D differ).
   bool unmodelled_input = false;
   /// True when every entry is zero (or the matrix is empty) for A and C (resp. Q and R).

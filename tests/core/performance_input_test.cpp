@@ -283,9 +283,7 @@ TEST(LinearFilterGamma, GammaOfAnotherWidthAtALaterStepIsAnErrorNamingTheStepsGa
 }
 
 TEST(LinearFilterGamma, NegativeInputLengthOfACallbackFilterIsAnErrorNamingQ) {
-  const auto step = [](int) {
-    return LinearFilterStep{MatrixXd::Identity(1, 1), MatrixXd::Ones(1, 1), MatrixXd(), MatrixXd()};
-  };
+  const auto step = [](int) { return LinearFilterStep{MatrixXd::Identity(1, 1), MatrixXd::Ones(1, 1)}; };
   EXPECT_TRUE(
       testing::ThrowsErrorNaming([&] { LinearFilter(1, 1, 1, step, VectorXd::Zero(1), MatrixXd(), 3, -1); }, "q"));
 }

@@ -46,7 +46,7 @@ TEST(ExactPerformance, ScalarConstantGainClosedForm) {
   // e_k = (1 - g) a e_{k-1} + (1 - g) w_k - g v_k  =>  E_inf = ((1-g)^2 q + g^2 r) / (1 - (1-g)^2 a^2).
   const double a = 0.8, q = 0.5, r = 2.0, g = 0.3;
   Model model(MakeStep(Scalar(a), Scalar(1), Scalar(q), Scalar(r)), VectorXd::Zero(1), Scalar(1.0));
-  LinearFilter f(LinearFilterStep{Scalar((1 - g) * a), Scalar(g), MatrixXd(), MatrixXd()}, VectorXd::Zero(1));
+  LinearFilter f(LinearFilterStep{Scalar((1 - g) * a), Scalar(g), MatrixXd()}, VectorXd::Zero(1));
   const double e_inf = ((1 - g) * (1 - g) * q + g * g * r) / (1 - (1 - g) * (1 - g) * a * a);
   const StationaryPerformance st = ExactStationaryPerformance(model, f);
   EXPECT_EQ(st.method, StationaryMethod::kJoint);
@@ -154,16 +154,14 @@ TEST(ExactPerformance, StationaryErrorCoordinatesForUnstableTruthAndConsistentFi
 TEST(ExactPerformance, InvalidInputsThrow) {
   Model truth(MakeStep(MatrixXd::Identity(2, 2), MatrixXd::Ones(1, 2), MatrixXd::Identity(2, 2), Scalar(1)),
               VectorXd::Zero(2), MatrixXd::Identity(2, 2));
-  LinearFilter wrong_m(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 2), MatrixXd(), MatrixXd()},
-                       VectorXd::Zero(2));
+  LinearFilter wrong_m(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 2), MatrixXd()}, VectorXd::Zero(2));
   PerformanceOptions po;
   po.steps = 3;
   EXPECT_THROW(ExactPerformance(truth, wrong_m, po), Error);
-  LinearFilter wrong_out(LinearFilterStep{MatrixXd::Identity(3, 3), MatrixXd::Ones(3, 1), MatrixXd(), MatrixXd()},
+  LinearFilter wrong_out(LinearFilterStep{MatrixXd::Identity(3, 3), MatrixXd::Ones(3, 1), MatrixXd()},
                          VectorXd::Zero(3));
   EXPECT_THROW(ExactPerformance(truth, wrong_out, po), Error);
-  LinearFilter ok(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 1), MatrixXd(), MatrixXd()},
-                  VectorXd::Zero(2));
+  LinearFilter ok(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 1), MatrixXd()}, VectorXd::Zero(2));
   EXPECT_THROW(ExactPerformance(truth, ok), Error);  // no horizon anywhere
   po.weight = -MatrixXd::Identity(2, 2);
   EXPECT_THROW(ExactPerformance(truth, ok, po), Error);
@@ -171,12 +169,12 @@ TEST(ExactPerformance, InvalidInputsThrow) {
   mo.runs = 1;
   mo.steps = 3;
   EXPECT_THROW(MonteCarloPerformance(truth, ok, mo), Error);
-  EXPECT_THROW(LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(3, 1), MatrixXd(), MatrixXd()},
-                            VectorXd::Zero(2)),
-               Error);
-  EXPECT_THROW(LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 1), MatrixXd(), MatrixXd()},
-                            VectorXd::Zero(3)),
-               Error);
+  EXPECT_THROW(
+      LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(3, 1), MatrixXd()}, VectorXd::Zero(2)),
+      Error);
+  EXPECT_THROW(
+      LinearFilter(LinearFilterStep{MatrixXd::Identity(2, 2), MatrixXd::Ones(2, 1), MatrixXd()}, VectorXd::Zero(3)),
+      Error);
 }
 
 TEST(RunLinearFilter, KalmanAsLinearFilterReproducesTheOnlineFilter) {

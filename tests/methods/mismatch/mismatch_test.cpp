@@ -330,7 +330,7 @@ TEST(MismatchErrorBox, NoiseBoxExtremesAreCornersAndMatchBruteForce) {
   for (double dq : {-1.0, 1.0})
     for (double dr : {-1.0, 1.0}) {
       const ModelStep truth =
-          ApplyModelingErrors(design, {Zeros(design.A), Zeros(design.C), dq * ranges.Q, dr * ranges.R, {}});
+          ApplyModelingErrors(design, {Zeros(design.A), Zeros(design.C), dq * ranges.Q, dr * ranges.R});
       best = std::max(best, StationaryMismatchedCovariance(design, truth, fixed).trace);
       best_f = std::min(best_f, SolveFilterDare(truth.A, truth.C, truth.Q, truth.R).P_filt.trace());
     }
@@ -352,7 +352,7 @@ TEST(MismatchErrorBox, PlantBoxSearchIsAtLeastTheGridExtreme) {
   fixed.filter_gain = ComputeDesignTerms(design).filter_gain;
   double grid_max = -1, grid_min = 1e300;
   for (int i = 0; i <= 100; ++i) {
-    ModelingErrors e{Zeros(design.A), Zeros(design.C), MatrixXd(), MatrixXd(), MatrixXd()};
+    ModelingErrors e{Zeros(design.A), Zeros(design.C), MatrixXd(), MatrixXd()};
     e.A(1, 0) = -0.2 + 0.004 * i;
     const ModelStep truth = ApplyModelingErrors(design, e);
     const StationaryMismatch m = StationaryMismatchedCovariance(design, truth, fixed);
@@ -370,12 +370,12 @@ TEST(MismatchInput, BadInputThrowsNamingTheArgument) {
   const ModelStep design = RandomStep(rng, 2, 1, 0, 0.5);
   EXPECT_TRUE(testing::ThrowsErrorNaming(
       [&] {
-        ApplyModelingErrors(design, {MatrixXd::Zero(3, 3), {}, {}, {}, {}});
+        ApplyModelingErrors(design, {MatrixXd::Zero(3, 3), {}, {}, {}});
       },
       "errors.A"));
   EXPECT_TRUE(testing::ThrowsErrorNaming(
       [&] {
-        ApplyModelingErrors(design, {{}, {}, {}, MatrixXd::Constant(1, 1, 100.0), {}});
+        ApplyModelingErrors(design, {{}, {}, {}, MatrixXd::Constant(1, 1, 100.0)});
       },
       "R"));
   MismatchOptions bad_gain;
@@ -468,15 +468,14 @@ TEST(MismatchBounds, HugeButRepresentableRangesGiveBounds) {
   const ErrorNorms e = ErrorNormsFromRanges(noise);
   EXPECT_DOUBLE_EQ(e.Q, 1e308);
   EXPECT_DOUBLE_EQ(e.R, 1e308);
-  EXPECT_DOUBLE_EQ(ErrorNormsFromRanges({MatrixXd::Constant(1, 2, 1e308), {}, {}, {}, {}, false}).A,
-                   std::sqrt(2.0) * 1e308);
+  EXPECT_DOUBLE_EQ(ErrorNormsFromRanges({MatrixXd::Constant(1, 2, 1e308), {}, {}, {}}).A, std::sqrt(2.0) * 1e308);
   const PatelTodaBounds b = ComputePatelTodaBounds(design, noise);
   EXPECT_TRUE(b.summary.ok()) << b.summary.message;
   ASSERT_TRUE(b.pi3.has_value());
   EXPECT_FALSE(b.pi5.has_value());
   // A norm beyond the double range (three entries of 1.7e308) is named with what overflowed.
   ErrorNorms over;
-  over.Q = ErrorNormsFromRanges({{}, {}, MatrixXd::Constant(1, 3, 1.7e308), {}, {}, false}).Q;
+  over.Q = ErrorNormsFromRanges({{}, {}, MatrixXd::Constant(1, 3, 1.7e308), {}}).Q;
   EXPECT_TRUE(std::isinf(over.Q));
   EXPECT_TRUE(testing::ThrowsErrorNaming([&] { Theorem3Bound(b.terms, over); }, "|dQ|_F"));
 }
